@@ -1,0 +1,125 @@
+//! Stages, jobs and the graph that connects them.
+
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::run::JobContext;
+
+/// One step of the pipeline, a pure function of its inputs and parameters.
+///
+/// Implementations live in the crates that own the step; the graph only needs this trait, so
+/// a new stage plugs in without touching this crate.
+pub trait Stage: Send + Sync {
+    /// Stable name; part of every job key and shown in progress and summaries.
+    fn name(&self) -> &'static str;
+    /// Bump whenever the stage's outputs for the same inputs change (a fixed bug, a new field):
+    /// every job of the stage then re-runs.
+    fn version(&self) -> u32;
+    /// Read inputs from `ctx`, compute, and store named outputs with [`JobContext::output`].
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError>;
+}
+
+/// A stage failed; the message is shown to the user as is, so it should name the file and
+/// the problem.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct StageError(pub String);
+
+impl StageError {
+    pub fn new(message: impl fmt::Display) -> StageError {
+        StageError(message.to_string())
+    }
+}
+
+impl fmt::Display for StageError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for StageError {}
+
+/// Index of a job in its [`Graph`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct JobId(pub usize);
+
+/// Where one input of a job comes from.
+#[derive(Clone, Debug)]
+pub enum Input {
+    /// A file on disk, identified by its content hash. Files the stage discovers while running
+    /// (`JobContext::read_discovered`) are resolved relative to this file's folder.
+    Source(PathBuf),
+    /// A named output of an earlier job.
+    Output { job: JobId, name: String },
+}
+
+/// A job: a stage applied to named inputs with canonical parameters, for one asset.
+#[derive(Clone)]
+pub struct JobSpec {
+    /// The asset the job belongs to (its path relative to the assets folder); with the stage
+    /// name it identifies "the same job" across builds, for `--explain`.
+    pub asset: String,
+    pub stage: Arc<dyn Stage>,
+    /// Parameters; hashed in canonical form (sorted keys), so field order does not matter.
+    pub params: serde_json::Value,
+    /// Named inputs, in a fixed order (the order is part of the key).
+    pub inputs: Vec<(String, Input)>,
+}
+
+/// A directed acyclic graph of jobs. Acyclic by construction: a job may only take outputs of
+/// jobs added before it.
+#[derive(Default)]
+pub struct Graph {
+    pub(crate) jobs: Vec<JobSpec>,
+}
+
+impl Graph {
+    pub fn new() -> Graph {
+        Graph::default()
+    }
+
+    /// Add a job and return its id.
+    ///
+    /// # Panics
+    /// If an input names a job that is not yet in the graph (a programming error in the
+    /// caller, not a user error).
+    pub fn add(&mut self, job: JobSpec) -> JobId {
+        let id = JobId(self.jobs.len());
+        for (_, input) in &job.inputs {
+            if let Input::Output { job: dep, .. } = input {
+                assert!(dep.0 < id.0, "job input refers to a later job");
+            }
+        }
+        self.jobs.push(job);
+        id
+    }
+
+    /// The job with this id.
+    pub fn job(&self, id: JobId) -> &JobSpec {
+        &self.jobs[id.0]
+    }
+
+    /// All jobs, in insertion order.
+    pub fn jobs(&self) -> impl Iterator<Item = (JobId, &JobSpec)> {
+        self.jobs.iter().enumerate().map(|(i, j)| (JobId(i), j))
+    }
+
+    pub fn len(&self) -> usize {
+        self.jobs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.jobs.is_empty()
+    }
+
+    /// Stage names in first-appearance order.
+    pub fn stage_names(&self) -> Vec<&'static str> {
+        let mut names: Vec<&'static str> = Vec::new();
+        for job in &self.jobs {
+            if !names.contains(&job.stage.name()) {
+                names.push(job.stage.name());
+            }
+        }
+        names
+    }
+}

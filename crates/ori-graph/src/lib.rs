@@ -1,0 +1,25 @@
+//! The content-hashed build graph.
+//!
+//! A job is (stage, stage version, canonical parameters, input content hashes); its key is the
+//! blake3 of those ([`job_key`]). Outputs are stored by content hash in a [`Cache`]; an action
+//! entry maps a key to the output hashes. A downstream job's key is made from upstream
+//! *output* hashes, so an upstream job that re-runs and produces the same bytes stops the
+//! cascade (early cutoff). [`run`] executes a [`Graph`] on a rayon pool; results never depend
+//! on the thread count because every job is a pure function of its key.
+
+mod cache;
+mod hash;
+mod job;
+mod progress;
+mod run;
+mod sources;
+
+pub use cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, write_atomic};
+pub use hash::{ContentHash, canonical_json, job_key};
+pub use job::{Graph, Input, JobId, JobSpec, Stage, StageError};
+pub use progress::{Progress, ProgressMode};
+pub use run::{
+    Build, JobContext, JobResult, Observer, Outcome, RunOptions, RunReason, Silent, StageSummary,
+    run,
+};
+pub use sources::{RACY_WINDOW, SourceHasher};

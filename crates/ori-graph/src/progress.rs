@@ -1,0 +1,140 @@
+//! Progress display: indicatif bars (overall and per stage) on a terminal, or one plain line
+//! per event when stdout is not a terminal or `CI` is set (logs stay readable).
+
+use std::io::IsTerminal;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::job::{Graph, JobSpec};
+use crate::run::{JobResult, Observer, Outcome};
+
+/// How progress is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProgressMode {
+    /// Live bars on the terminal.
+    Bars,
+    /// One line per finished job.
+    Lines,
+    /// Only warnings and errors.
+    Quiet,
+}
+
+impl ProgressMode {
+    /// Bars on an interactive terminal, lines otherwise (and whenever `CI` is set).
+    pub fn detect() -> ProgressMode {
+        if std::env::var_os("CI").is_some() || !std::io::stdout().is_terminal() {
+            ProgressMode::Lines
+        } else {
+            ProgressMode::Bars
+        }
+    }
+}
+
+/// An [`Observer`] that shows progress, warnings, errors and (with `explain`) why jobs ran.
+pub struct Progress {
+    mode: ProgressMode,
+    explain: bool,
+    multi: MultiProgress,
+    overall: ProgressBar,
+    stages: Vec<(&'static str, ProgressBar)>,
+}
+
+impl Progress {
+    pub fn new(graph: &Graph, mode: ProgressMode, explain: bool) -> Progress {
+        let target = if mode == ProgressMode::Bars {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        };
+        let multi = MultiProgress::with_draw_target(target);
+        let style = |template: &str| {
+            ProgressStyle::with_template(template)
+                .expect("valid progress template")
+                .progress_chars("=> ")
+        };
+        let overall = multi.add(ProgressBar::new(graph.len() as u64));
+        overall.set_style(style("{prefix:>10} [{bar:30}] {pos}/{len} jobs, {elapsed}"));
+        overall.set_prefix("all");
+        let stages = graph
+            .stage_names()
+            .into_iter()
+            .map(|name| {
+                let total = graph.jobs().filter(|(_, j)| j.stage.name() == name).count();
+                let bar = multi.add(ProgressBar::new(total as u64));
+                bar.set_style(style("{prefix:>10} [{bar:30}] {pos}/{len} {wide_msg}"));
+                bar.set_prefix(name);
+                (name, bar)
+            })
+            .collect();
+        Progress {
+            mode,
+            explain,
+            multi,
+            overall,
+            stages,
+        }
+    }
+
+    fn print(&self, line: &str) {
+        match self.mode {
+            ProgressMode::Bars => {
+                let _ = self.multi.println(line);
+            }
+            ProgressMode::Lines | ProgressMode::Quiet => println!("{line}"),
+        }
+    }
+
+    fn stage_bar(&self, stage: &str) -> Option<&ProgressBar> {
+        self.stages.iter().find(|(n, _)| *n == stage).map(|(_, b)| b)
+    }
+
+    /// Remove the bars (call before printing the summary).
+    pub fn finish(&self) {
+        for (_, bar) in &self.stages {
+            bar.finish_and_clear();
+        }
+        self.overall.finish_and_clear();
+        let _ = self.multi.clear();
+    }
+}
+
+impl Observer for Progress {
+    fn job_started(&self, job: &JobSpec) {
+        if let Some(bar) = self.stage_bar(job.stage.name()) {
+            bar.set_message(job.asset.clone());
+        }
+    }
+
+    fn job_finished(&self, job: &JobSpec, result: &JobResult) {
+        self.overall.inc(1);
+        if let Some(bar) = self.stage_bar(job.stage.name()) {
+            bar.inc(1);
+        }
+        let what = format!("[{}] {}", job.stage.name(), job.asset);
+        let lines = self.mode == ProgressMode::Lines;
+        let line = match &result.outcome {
+            Outcome::Reused if lines => Some(format!("{what}: reused")),
+            Outcome::Ran(reason) if self.explain => Some(format!(
+                "{what}: ran in {:.2} s because {reason}",
+                result.duration.as_secs_f64()
+            )),
+            Outcome::Ran(_) if lines => {
+                Some(format!("{what}: ran in {:.2} s", result.duration.as_secs_f64()))
+            }
+            Outcome::WouldRun(reason) => Some(format!("{what}: would run because {reason}")),
+            Outcome::Failed(message) => Some(format!("error: {what}: {message}")),
+            Outcome::Skipped if lines => Some(format!("{what}: skipped (an upstream job failed)")),
+            _ => None,
+        };
+        if let Some(line) = line {
+            self.print(&line);
+        }
+        for warning in &result.warnings {
+            self.print(&format!("warning: {}: {warning}", job.asset));
+        }
+    }
+
+    fn note(&self, message: &str) {
+        self.print(message);
+    }
+}
