@@ -127,11 +127,16 @@ impl Cache {
 
     fn action_path(&self, key: &ContentHash) -> PathBuf {
         let hex = key.to_hex();
-        self.root.join("ac").join(&hex[..2]).join(format!("{hex}.json"))
+        self.root
+            .join("ac")
+            .join(&hex[..2])
+            .join(format!("{hex}.json"))
     }
 
     fn record_path(&self, identity: &ContentHash) -> PathBuf {
-        self.root.join("jobs").join(format!("{}.json", identity.to_hex()))
+        self.root
+            .join("jobs")
+            .join(format!("{}.json", identity.to_hex()))
     }
 
     /// Path of the stat memo (see `sources.rs`).
@@ -225,8 +230,12 @@ fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, Rea
         }
     };
     let text = std::str::from_utf8(&text).map_err(|_| corrupt("not UTF-8"))?;
-    let (check, json) = text.split_once('\n').ok_or_else(|| corrupt("no checksum line"))?;
-    let json = json.strip_suffix('\n').ok_or_else(|| corrupt("truncated"))?;
+    let (check, json) = text
+        .split_once('\n')
+        .ok_or_else(|| corrupt("no checksum line"))?;
+    let json = json
+        .strip_suffix('\n')
+        .ok_or_else(|| corrupt("truncated"))?;
     if check != ContentHash::of(json.as_bytes()).to_hex() {
         return Err(corrupt("checksum mismatch"));
     }
@@ -246,7 +255,10 @@ mod tests {
         let path = cache.blob_path(&blob.hash);
         fs::write(&path, b"hello rel1ef").unwrap();
         assert!(cache.blob_present(&blob), "same size: only a read can tell");
-        assert!(matches!(cache.read_blob(&blob), Err(ReadError::Corrupt { .. })));
+        assert!(matches!(
+            cache.read_blob(&blob),
+            Err(ReadError::Corrupt { .. })
+        ));
         assert!(!path.exists(), "a corrupt blob is removed");
         assert!(matches!(cache.read_blob(&blob), Err(ReadError::Missing)));
     }
@@ -266,9 +278,15 @@ mod tests {
         assert_eq!(cache.read_action(&key).unwrap(), entry);
         let path = cache.action_path(&key);
         let text = fs::read_to_string(&path).unwrap();
-        for damaged in [text.replace("ingest", "ingesT"), text[..text.len() / 2].to_string()] {
+        for damaged in [
+            text.replace("ingest", "ingesT"),
+            text[..text.len() / 2].to_string(),
+        ] {
             fs::write(&path, damaged).unwrap();
-            assert!(matches!(cache.read_action(&key), Err(ReadError::Corrupt { .. })));
+            assert!(matches!(
+                cache.read_action(&key),
+                Err(ReadError::Corrupt { .. })
+            ));
         }
     }
 }

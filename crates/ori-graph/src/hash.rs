@@ -131,20 +131,41 @@ mod tests {
     #[test]
     fn canonical_json_sorts_keys_at_every_level() {
         let a = json!({"b": 1, "a": {"y": [1, {"q": 2, "p": 1}], "x": 0.5}});
-        assert_eq!(canonical_json(&a), r#"{"a":{"x":0.5,"y":[1,{"p":1,"q":2}]},"b":1}"#);
+        assert_eq!(
+            canonical_json(&a),
+            r#"{"a":{"x":0.5,"y":[1,{"p":1,"q":2}]},"b":1}"#
+        );
     }
 
     #[test]
     fn key_depends_on_every_field() {
         let h = ContentHash::of(b"mesh");
         let base = job_key("bake", 1, &json!({"n": 20}), &[("mesh".into(), h)]);
-        assert_ne!(base, job_key("bake2", 1, &json!({"n": 20}), &[("mesh".into(), h)]));
-        assert_ne!(base, job_key("bake", 2, &json!({"n": 20}), &[("mesh".into(), h)]));
-        assert_ne!(base, job_key("bake", 1, &json!({"n": 21}), &[("mesh".into(), h)]));
-        assert_ne!(base, job_key("bake", 1, &json!({"n": 20}), &[("other".into(), h)]));
+        assert_ne!(
+            base,
+            job_key("bake2", 1, &json!({"n": 20}), &[("mesh".into(), h)])
+        );
+        assert_ne!(
+            base,
+            job_key("bake", 2, &json!({"n": 20}), &[("mesh".into(), h)])
+        );
+        assert_ne!(
+            base,
+            job_key("bake", 1, &json!({"n": 21}), &[("mesh".into(), h)])
+        );
+        assert_ne!(
+            base,
+            job_key("bake", 1, &json!({"n": 20}), &[("other".into(), h)])
+        );
         let h2 = ContentHash::of(b"mesh2");
-        assert_ne!(base, job_key("bake", 1, &json!({"n": 20}), &[("mesh".into(), h2)]));
-        assert_eq!(base, job_key("bake", 1, &json!({"n": 20}), &[("mesh".into(), h)]));
+        assert_ne!(
+            base,
+            job_key("bake", 1, &json!({"n": 20}), &[("mesh".into(), h2)])
+        );
+        assert_eq!(
+            base,
+            job_key("bake", 1, &json!({"n": 20}), &[("mesh".into(), h)])
+        );
     }
 
     #[test]

@@ -85,7 +85,10 @@ impl Progress {
     }
 
     fn stage_bar(&self, stage: &str) -> Option<&ProgressBar> {
-        self.stages.iter().find(|(n, _)| *n == stage).map(|(_, b)| b)
+        self.stages
+            .iter()
+            .find(|(n, _)| *n == stage)
+            .map(|(_, b)| b)
     }
 
     /// Remove the bars (call before printing the summary).
@@ -118,9 +121,10 @@ impl Observer for Progress {
                 "{what}: ran in {:.2} s because {reason}",
                 result.duration.as_secs_f64()
             )),
-            Outcome::Ran(_) if lines => {
-                Some(format!("{what}: ran in {:.2} s", result.duration.as_secs_f64()))
-            }
+            Outcome::Ran(_) if lines => Some(format!(
+                "{what}: ran in {:.2} s",
+                result.duration.as_secs_f64()
+            )),
             Outcome::WouldRun(reason) => Some(format!("{what}: would run because {reason}")),
             Outcome::Failed(message) => Some(format!("error: {what}: {message}")),
             Outcome::Skipped if lines => Some(format!("{what}: skipped (an upstream job failed)")),

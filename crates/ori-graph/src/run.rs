@@ -268,7 +268,9 @@ fn source_dir(job: &JobSpec) -> Option<&Path> {
 
 impl<'g> Exec<'g> {
     fn result(&self, id: JobId) -> &JobResult {
-        self.results[id.0].get().expect("job finished before its dependents")
+        self.results[id.0]
+            .get()
+            .expect("job finished before its dependents")
     }
 
     fn run_and_release<'s>(
@@ -298,13 +300,22 @@ impl<'g> Exec<'g> {
                 Input::Source(path) => match self.sources.hash(path) {
                     Ok(Some(h)) => h,
                     Ok(None) => {
-                        return Err(Outcome::Failed(format!("{}: file not found", path.display())));
+                        return Err(Outcome::Failed(format!(
+                            "{}: file not found",
+                            path.display()
+                        )));
                     }
                     Err(e) => {
-                        return Err(Outcome::Failed(format!("{}: cannot read: {e}", path.display())));
+                        return Err(Outcome::Failed(format!(
+                            "{}: cannot read: {e}",
+                            path.display()
+                        )));
                     }
                 },
-                Input::Output { job: dep, name: output } => {
+                Input::Output {
+                    job: dep,
+                    name: output,
+                } => {
                     let upstream = self.result(*dep);
                     match &upstream.outcome {
                         Outcome::Failed(_) | Outcome::Skipped => return Err(Outcome::Skipped),
@@ -375,7 +386,10 @@ impl<'g> Exec<'g> {
             .write_action(&key, &entry)
             .and_then(|()| self.cache.write_record(&identity(job), &record));
         if let Err(e) = stored {
-            let message = format!("cannot write to the cache {}: {e}", self.cache.root().display());
+            let message = format!(
+                "cannot write to the cache {}: {e}",
+                self.cache.root().display()
+            );
             return JobResult::without_outputs(Outcome::Failed(message));
         }
         JobResult {
@@ -451,7 +465,11 @@ impl<'g> Exec<'g> {
     }
 
     /// Run a job's stage and store its outputs; panics in a stage become failures.
-    fn run_stage(&self, id: JobId, inputs: &[(String, ContentHash)]) -> Result<ActionEntry, String> {
+    fn run_stage(
+        &self,
+        id: JobId,
+        inputs: &[(String, ContentHash)],
+    ) -> Result<ActionEntry, String> {
         let job = self.graph.job(id);
         let mut ctx = JobContext {
             exec: self,
@@ -482,7 +500,10 @@ impl<'g> Exec<'g> {
         let mut outputs = BTreeMap::new();
         for (name, bytes) in ctx.outputs {
             let blob = self.cache.put_blob(&bytes).map_err(|e| {
-                format!("cannot write to the cache {}: {e}", self.cache.root().display())
+                format!(
+                    "cannot write to the cache {}: {e}",
+                    self.cache.root().display()
+                )
             })?;
             outputs.insert(name, blob);
         }
@@ -507,7 +528,10 @@ impl<'g> Exec<'g> {
         match self.cache.read_blob(blob) {
             Ok(bytes) => return Ok(bytes),
             Err(ReadError::Io { path, error }) => {
-                return Err(StageError(format!("cannot read {}: {error}", path.display())));
+                return Err(StageError(format!(
+                    "cannot read {}: {error}",
+                    path.display()
+                )));
             }
             Err(damage) => self.observer.note(&format!(
                 "warning: {}: {damage}; re-running stage `{}` to regenerate it",
@@ -528,7 +552,9 @@ impl<'g> Exec<'g> {
                 job.stage.name()
             )));
         }
-        self.cache.read_blob(blob).map_err(|e| StageError(e.to_string()))
+        self.cache
+            .read_blob(blob)
+            .map_err(|e| StageError(e.to_string()))
     }
 }
 
@@ -538,7 +564,11 @@ fn param_changes(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String
         match v {
             serde_json::Value::Object(map) => {
                 for (k, v) in map {
-                    let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                    let path = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
                     flatten(&path, v, out);
                 }
             }
@@ -599,7 +629,10 @@ impl JobContext<'_> {
         let job = self.exec.graph.job(self.id);
         let position = job.inputs.iter().position(|(n, _)| n == name);
         let Some(position) = position else {
-            return Err(StageError(format!("stage `{}` has no input `{name}`", job.stage.name())));
+            return Err(StageError(format!(
+                "stage `{}` has no input `{name}`",
+                job.stage.name()
+            )));
         };
         let expected = self.inputs[position].1;
         match &job.inputs[position].1 {
@@ -663,7 +696,10 @@ mod tests {
         let new = json!({"ingest": {"recompute_normals": true}, "bake": {"n": 20, "m": 1}});
         assert_eq!(
             param_changes(&old, &new),
-            vec!["bake.m: (unset) -> 1", "ingest.recompute_normals: false -> true"]
+            vec![
+                "bake.m: (unset) -> 1",
+                "ingest.recompute_normals: false -> true"
+            ]
         );
     }
 }

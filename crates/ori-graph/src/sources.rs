@@ -105,7 +105,9 @@ impl SourceHasher {
             .unwrap_or_default();
         let ours = self.memo.lock().unwrap();
         merged.extend(ours.iter().map(|(k, v)| (k.clone(), v.clone())));
-        merged.retain(|_, e| now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128);
+        merged.retain(|_, e| {
+            now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128
+        });
         let json = serde_json::to_vec(&merged).map_err(io::Error::other)?;
         write_atomic(&self.memo_path, &json)
     }

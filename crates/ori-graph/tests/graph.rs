@@ -7,8 +7,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use ori_graph::{
-    Build, Cache, Graph, Input, JobContext, JobId, JobSpec, Outcome, RunOptions, RunReason,
-    Silent, Stage, StageError, run,
+    Build, Cache, Graph, Input, JobContext, JobId, JobSpec, Outcome, RunOptions, RunReason, Silent,
+    Stage, StageError, run,
 };
 use serde_json::{Value, json};
 
@@ -29,7 +29,10 @@ impl Stage for Upper {
         self.runs.fetch_add(1, Ordering::SeqCst);
         let text = String::from_utf8(ctx.input("source")?).map_err(StageError::new)?;
         if text.contains("FAIL") {
-            return Err(StageError::new(format!("{}: the text says FAIL", ctx.asset())));
+            return Err(StageError::new(format!(
+                "{}: the text says FAIL",
+                ctx.asset()
+            )));
         }
         if text.contains("PANIC") {
             panic!("stage bug");
@@ -107,13 +110,22 @@ impl Fixture {
                 asset: name.into(),
                 stage: self.upper.clone(),
                 params: up,
-                inputs: vec![("source".into(), Input::Source(self.root.join(name).join("src.txt")))],
+                inputs: vec![(
+                    "source".into(),
+                    Input::Source(self.root.join(name).join("src.txt")),
+                )],
             });
             let c = graph.add(JobSpec {
                 asset: name.into(),
                 stage: self.count.clone(),
                 params: count,
-                inputs: vec![("text".into(), Input::Output { job: u, name: "text".into() })],
+                inputs: vec![(
+                    "text".into(),
+                    Input::Output {
+                        job: u,
+                        name: "text".into(),
+                    },
+                )],
             });
             ids.push((u, c));
         }
@@ -190,8 +202,14 @@ fn parameter_change_invalidates_exactly_the_downstream_jobs() {
     });
     let b = build(&fx, &graph, 2);
     assert_eq!(fx.runs(), (1, 1));
-    assert_eq!(outcome(&b, ids[0].0), Outcome::Ran(RunReason::Inputs(vec!["source".into()])));
-    assert_eq!(outcome(&b, ids[0].1), Outcome::Ran(RunReason::Inputs(vec!["text".into()])));
+    assert_eq!(
+        outcome(&b, ids[0].0),
+        Outcome::Ran(RunReason::Inputs(vec!["source".into()]))
+    );
+    assert_eq!(
+        outcome(&b, ids[0].1),
+        Outcome::Ran(RunReason::Inputs(vec!["text".into()]))
+    );
 }
 
 #[test]
@@ -205,7 +223,10 @@ fn identical_upstream_output_stops_the_cascade() {
     let (graph, ids) = fx.graph(&|_| (json!({"trim": true}), json!({"times": 1})));
     let b = build(&fx, &graph, 2);
     assert_eq!(fx.runs(), (3, 0));
-    assert!(matches!(outcome(&b, ids[0].0), Outcome::Ran(RunReason::Params(_))));
+    assert!(matches!(
+        outcome(&b, ids[0].0),
+        Outcome::Ran(RunReason::Params(_))
+    ));
     assert_eq!(outcome(&b, ids[0].1), Outcome::Reused);
 }
 
@@ -224,7 +245,11 @@ fn stage_version_bump_reruns_that_stage() {
         outcome(&b, ids[2].0),
         Outcome::Ran(RunReason::StageVersion { from: 1, to: 2 })
     );
-    assert_eq!(outcome(&b, ids[2].1), Outcome::Reused, "same output, early cutoff");
+    assert_eq!(
+        outcome(&b, ids[2].1),
+        Outcome::Reused,
+        "same output, early cutoff"
+    );
 }
 
 #[test]
@@ -278,7 +303,10 @@ fn corrupt_blobs_and_entries_are_rebuilt_never_used() {
     let b = build(&fx, &graph, 2);
     assert!(b.succeeded());
     assert_eq!(fx.runs(), (3, 3));
-    assert!(matches!(outcome(&b, ids[2].0), Outcome::Ran(RunReason::CorruptEntry(_))));
+    assert!(matches!(
+        outcome(&b, ids[2].0),
+        Outcome::Ran(RunReason::CorruptEntry(_))
+    ));
 }
 
 #[test]
@@ -299,7 +327,10 @@ fn discovered_files_are_tracked() {
     assert_eq!(fx.runs(), (1, 1));
     fs::write(&include, "+INC").unwrap();
     let b = build(&fx, &graph, 2);
-    assert!(matches!(outcome(&b, ids[2].0), Outcome::Ran(RunReason::Discovered(_))));
+    assert!(matches!(
+        outcome(&b, ids[2].0),
+        Outcome::Ran(RunReason::Discovered(_))
+    ));
     assert_eq!(b.read_output(ids[2].0, "text").unwrap(), b"ASSET C+INC");
 }
 
@@ -311,7 +342,10 @@ fn failures_are_contained_and_reported() {
     let (graph, ids) = fx.graph(&defaults);
     let b = build(&fx, &graph, 2);
     assert!(!b.succeeded());
-    assert_eq!(outcome(&b, ids[0].0), Outcome::Failed("a: the text says FAIL".into()));
+    assert_eq!(
+        outcome(&b, ids[0].0),
+        Outcome::Failed("a: the text says FAIL".into())
+    );
     assert_eq!(outcome(&b, ids[0].1), Outcome::Skipped);
     match outcome(&b, ids[1].0) {
         Outcome::Failed(m) => assert!(m.contains("internal error in stage `upper` for b"), "{m}"),
@@ -338,7 +372,10 @@ fn dry_run_reports_without_running() {
     );
     assert_eq!(fx.runs(), (0, 0));
     assert_eq!(outcome(&b, ids[0].0), Outcome::WouldRun(RunReason::NewJob));
-    assert_eq!(outcome(&b, ids[0].1), Outcome::WouldRun(RunReason::UpstreamWouldRun));
+    assert_eq!(
+        outcome(&b, ids[0].1),
+        Outcome::WouldRun(RunReason::UpstreamWouldRun)
+    );
     assert!(!fx.cache.root().join("ac").exists());
 }
 
@@ -366,7 +403,10 @@ fn missing_source_fails_with_its_path() {
     let b = build(&fx, &graph, 2);
     match outcome(&b, ids[1].0) {
         Outcome::Failed(m) => {
-            assert!(m.contains(&Path::new("b").join("src.txt").display().to_string()), "{m}");
+            assert!(
+                m.contains(&Path::new("b").join("src.txt").display().to_string()),
+                "{m}"
+            );
             assert!(m.contains("not found"), "{m}");
         }
         other => panic!("{other:?}"),

@@ -63,7 +63,6 @@ pub fn angle_between(a: [f64; 3], b: [f64; 3]) -> f64 {
     atan2(cross, dot)
 }
 
-
 /// `x^n` by repeated multiplication (`powi` may lower to different code per target).
 fn ipow(x: f64, n: i32) -> f64 {
     (0..n).fold(1.0, |acc, _| acc * x)
@@ -140,7 +139,11 @@ mod tests {
     fn srgb_round_trip_matches_the_formula() {
         for i in 0..=255 {
             let c = i as f64 / 255.0;
-            let exact = if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
+            let exact = if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            };
             assert!((srgb_to_linear(c) - exact).abs() < 1e-12, "{i}");
             assert!((linear_to_srgb(srgb_to_linear(c)) - c).abs() < 1e-9, "{i}");
         }

@@ -1,0 +1,835 @@
+//! glTF 2.0 (`.gltf` JSON with external or data-URI resources) and GLB.
+//!
+//! The `gltf` crate parses and validates the document and decodes accessors. Everything the
+//! document references (buffers, images) is read here, through the caller's resolver, and only
+//! base-colour images are decoded. The crate trusts a validated document further than is safe
+//! (its accessor reader panics on layouts it does not expect and on out-of-range arithmetic, its
+//! validator indexes the POSITION accessor unchecked), so those things are checked here first.
+
+use std::borrow::Cow;
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+
+use base64::Engine as _;
+use base64::engine::DecodePaddingMode;
+use base64::engine::general_purpose::{GeneralPurpose, GeneralPurposeConfig};
+use glam::{Mat3, Mat4, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::buffer::Source;
+use gltf::json::Value;
+use gltf::json::validation::Checked;
+use gltf::mesh::Mode;
+use gltf::texture::{MagFilter, WrappingMode};
+use gltf::{Accessor, Document, Semantic};
+
+use crate::builder::MeshBuilder;
+use crate::{AlphaMode, ErrorKind, Material, MeshError, Resolver, Texture, Wrap, texture};
+
+/// Extensions that change what the geometry is: loading without them would be silently wrong,
+/// so a file that uses one is refused even when it only lists it as used.
+const GEOMETRY_EXTENSIONS: [&str; 4] = [
+    "KHR_draco_mesh_compression",
+    "EXT_meshopt_compression",
+    "KHR_mesh_quantization",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// Most elements accepted in a sparse accessor without a buffer view. Such an accessor costs
+/// memory per element but no file bytes, so its declared count alone would size allocations.
+const MAX_UNBACKED_ELEMENTS: usize = 1 << 24;
+
+/// glTF's default alpha cutoff for `MASK` materials.
+const DEFAULT_ALPHA_CUTOFF: f32 = 0.5;
+
+/// Element layouts the gltf reader decodes for each attribute (anything else makes it panic).
+const VEC3_F32: &[(DataType, Dimensions)] = &[(DataType::F32, Dimensions::Vec3)];
+const TEX_COORD_LAYOUTS: &[(DataType, Dimensions)] = &[
+    (DataType::F32, Dimensions::Vec2),
+    (DataType::U8, Dimensions::Vec2),
+    (DataType::U16, Dimensions::Vec2),
+];
+const COLOR_LAYOUTS: &[(DataType, Dimensions)] = &[
+    (DataType::F32, Dimensions::Vec3),
+    (DataType::F32, Dimensions::Vec4),
+    (DataType::U8, Dimensions::Vec3),
+    (DataType::U8, Dimensions::Vec4),
+    (DataType::U16, Dimensions::Vec3),
+    (DataType::U16, Dimensions::Vec4),
+];
+const INDEX_LAYOUTS: &[(DataType, Dimensions)] = &[
+    (DataType::U8, Dimensions::Scalar),
+    (DataType::U16, Dimensions::Scalar),
+    (DataType::U32, Dimensions::Scalar),
+];
+
+/// Base64 as exporters write it: standard alphabet, padding optional.
+const BASE64: GeneralPurpose = GeneralPurpose::new(
+    &base64::alphabet::STANDARD,
+    GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent),
+);
+
+pub(crate) fn load(
+    path: &Path,
+    bytes: &[u8],
+    resolver: &mut Resolver<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<MeshBuilder, MeshError> {
+    load_document(bytes, resolver, warnings).map_err(|kind| kind.in_file(path))
+}
+
+fn load_document(
+    bytes: &[u8],
+    resolver: &mut Resolver<'_>,
+    warnings: &mut Vec<String>,
+) -> Result<MeshBuilder, ErrorKind> {
+    // Sniffed like the gltf crate does, so a GLB named `.gltf` still loads.
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        split_glb(bytes)?
+    } else {
+        (bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes), None)
+    };
+    // The raw JSON is kept for what the typed model hides with its extension features off.
+    let raw: Value = gltf::json::deserialize::from_slice(json)
+        .map_err(|e| corrupt(format!("invalid glTF JSON: {e}")))?;
+    check_geometry_extensions(&raw)?;
+    let document = parse_document(json, warnings)?;
+    let buffers = load_buffers(&document, blob, resolver)?;
+    let draws = scene_draws(&document, warnings)?;
+
+    let mut loader = Loader {
+        document: &document,
+        raw: &raw,
+        buffers: &buffers,
+        resolver,
+        warnings,
+        builder: MeshBuilder::default(),
+        materials: vec![None; document.materials().len()],
+        default_material: None,
+        textures: HashMap::new(),
+        decoded_images: HashMap::new(),
+        warned: HashSet::new(),
+        skipped_primitives: false,
+    };
+    for (mesh, world) in &draws {
+        loader.add_mesh(mesh, *world)?;
+    }
+    if loader.builder.triangles.is_empty() {
+        let why = if draws.is_empty() {
+            " (the scene draws no meshes)"
+        } else if loader.skipped_primitives {
+            " (its primitives are points or lines)"
+        } else {
+            ""
+        };
+        return Err(ErrorKind::Empty(why.to_string()));
+    }
+    Ok(loader.builder)
+}
+
+fn corrupt(message: impl Into<String>) -> ErrorKind {
+    ErrorKind::Corrupt(message.into())
+}
+
+/// Names an object in messages: by its name when it has one (mesh `Duck`), else by index
+/// (mesh 3).
+fn label(kind: &str, name: Option<&str>, index: usize) -> String {
+    match name {
+        Some(name) => format!("{kind} `{name}`"),
+        None => format!("{kind} {index}"),
+    }
+}
+
+fn le_u32(bytes: &[u8], at: usize) -> Option<u32> {
+    let word = bytes.get(at..at.checked_add(4)?)?;
+    Some(u32::from_le_bytes(word.try_into().ok()?))
+}
+
+/// Splits a GLB container into its JSON chunk and optional BIN chunk. Done here rather than by
+/// `gltf::Glb`, which underflows (panics) on a header length under 12 and reports truncation
+/// without saying so.
+fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), ErrorKind> {
+    let (Some(version), Some(length)) = (le_u32(bytes, 4), le_u32(bytes, 8)) else {
+        return Err(corrupt(format!(
+            "truncated GLB: {} bytes, shorter than the 12-byte header",
+            bytes.len()
+        )));
+    };
+    if version != 2 {
+        return Err(corrupt(format!(
+            "unsupported GLB version {version} (expected 2)"
+        )));
+    }
+    let length = length as usize;
+    if length > bytes.len() {
+        return Err(corrupt(format!(
+            "truncated GLB: the header declares {length} bytes, the file has {}",
+            bytes.len()
+        )));
+    }
+    let mut rest = bytes.get(12..length).ok_or_else(|| {
+        corrupt(format!(
+            "invalid GLB: declared length {length} is shorter than its header"
+        ))
+    })?;
+    let (mut json, mut bin) = (None, None);
+    while !rest.is_empty() {
+        let chunk = if json.is_none() { "JSON" } else { "binary" };
+        let (Some(chunk_length), Some(kind)) = (le_u32(rest, 0), rest.get(4..8)) else {
+            return Err(corrupt(format!(
+                "truncated GLB: incomplete {chunk} chunk header"
+            )));
+        };
+        let end = (chunk_length as usize).checked_add(8);
+        let Some((data, tail)) = end.and_then(|end| rest.get(8..end).zip(rest.get(end..))) else {
+            return Err(corrupt(format!(
+                "truncated GLB: the {chunk} chunk declares {chunk_length} bytes, {} remain",
+                rest.len() - 8
+            )));
+        };
+        match kind {
+            _ if json.is_none() && kind != b"JSON" => {
+                return Err(corrupt("invalid GLB: the first chunk is not JSON"));
+            }
+            b"JSON" if json.is_none() => json = Some(data),
+            b"BIN\0" if bin.is_none() => bin = Some(data),
+            // The specification asks readers to skip chunks they do not know.
+            _ => {}
+        }
+        rest = tail;
+    }
+    let json = json.ok_or_else(|| corrupt("invalid GLB: no JSON chunk"))?;
+    Ok((json, bin))
+}
+
+/// Refuses files whose geometry needs an extension this loader does not implement.
+fn check_geometry_extensions(raw: &Value) -> Result<(), ErrorKind> {
+    let listed = |key: &str| {
+        raw.get(key)
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter_map(Value::as_str)
+    };
+    match listed("extensionsRequired")
+        .chain(listed("extensionsUsed"))
+        .find(|name| GEOMETRY_EXTENSIONS.contains(name))
+    {
+        Some(name) => Err(ErrorKind::UnsupportedExtension(name.to_string())),
+        None => Ok(()),
+    }
+}
+
+/// Deserialises and validates the document. Required extensions left after the geometry check
+/// only affect appearance, so they are dropped with a warning instead of failing validation
+/// (the gltf crate refuses every required extension whose feature is not compiled in).
+fn parse_document(json: &[u8], warnings: &mut Vec<String>) -> Result<Document, ErrorKind> {
+    let mut root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
+        .map_err(|e| corrupt(format!("invalid glTF: {e}")))?;
+    for name in root.extensions_required.drain(..) {
+        warnings.push(format!(
+            "required extension `{name}` is not supported; loading without it"
+        ));
+    }
+    // The validator indexes the POSITION accessor without a bounds check.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+                && root.accessors.get(index.value()).is_none()
+            {
+                return Err(corrupt(format!(
+                    "invalid glTF: mesh {m} primitive {p}: POSITION accessor {} does not exist",
+                    index.value()
+                )));
+            }
+        }
+    }
+    Document::from_json(root).map_err(|error| match error {
+        gltf::Error::Validation(errors) => {
+            const SHOWN: usize = 3;
+            let mut message = errors
+                .iter()
+                .take(SHOWN)
+                .map(|(path, e)| format!("{path}: {e}"))
+                .collect::<Vec<_>>()
+                .join("; ");
+            if errors.len() > SHOWN {
+                message += &format!(" (and {} more)", errors.len() - SHOWN);
+            }
+            corrupt(format!("invalid glTF: {message}"))
+        }
+        other => corrupt(format!("invalid glTF: {other}")),
+    })
+}
+
+/// The bytes of every buffer, each at least as long as it declares.
+fn load_buffers<'a>(
+    document: &Document,
+    blob: Option<&'a [u8]>,
+    resolver: &mut Resolver<'_>,
+) -> Result<Vec<Cow<'a, [u8]>>, ErrorKind> {
+    document
+        .buffers()
+        .map(|buffer| {
+            let data = match buffer.source() {
+                Source::Bin => Cow::Borrowed(blob.ok_or_else(|| {
+                    corrupt(format!(
+                        "buffer {} has no uri and there is no GLB binary chunk",
+                        buffer.index()
+                    ))
+                })?),
+                Source::Uri(uri) => Cow::Owned(read_uri(uri, resolver)?),
+            };
+            if data.len() < buffer.length() {
+                return Err(corrupt(format!(
+                    "buffer {} is truncated: {} bytes, {} declared",
+                    buffer.index(),
+                    data.len(),
+                    buffer.length()
+                )));
+            }
+            Ok(data)
+        })
+        .collect()
+}
+
+/// Reads what a URI refers to: a `data:` URI is decoded in place, anything else is
+/// percent-decoded into a relative file name for the resolver.
+fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind> {
+    if let Some(data) = uri.strip_prefix("data:") {
+        let (meta, payload) = data
+            .split_once(',')
+            .ok_or_else(|| corrupt("invalid data URI: no comma before the data"))?;
+        return if meta.ends_with(";base64") {
+            BASE64
+                .decode(payload)
+                .map_err(|e| corrupt(format!("invalid base64 in data URI: {e}")))
+        } else {
+            Ok(percent_decode(payload))
+        };
+    }
+    let name = String::from_utf8_lossy(&percent_decode(uri)).into_owned();
+    resolver(&name).map_err(|source| ErrorKind::MissingExternal {
+        uri: uri.to_string(),
+        source,
+    })
+}
+
+/// Decodes `%XX` escapes; anything else, malformed escapes included, passes through.
+fn percent_decode(text: &str) -> Vec<u8> {
+    let bytes = text.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let escaped = (bytes[i] == b'%')
+            .then(|| bytes.get(i + 1..i + 3))
+            .flatten()
+            .and_then(|hex| std::str::from_utf8(hex).ok())
+            .and_then(|hex| u8::from_str_radix(hex, 16).ok());
+        match escaped {
+            Some(byte) => {
+                out.push(byte);
+                i += 3;
+            }
+            None => {
+                out.push(bytes[i]);
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+/// Every mesh instance of the scene to draw, with its world transform, in scene order
+/// (depth first, children in file order).
+fn scene_draws<'d>(
+    document: &'d Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<(gltf::Mesh<'d>, Mat4)>, ErrorKind> {
+    let roots: Vec<gltf::Node<'d>> = match document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            warnings.push("the file has no scene; loading every root node".to_string());
+            let mut is_child = vec![false; document.nodes().len()];
+            for child in document.nodes().flat_map(|node| node.children()) {
+                is_child[child.index()] = true;
+            }
+            document
+                .nodes()
+                .filter(|node| !is_child[node.index()])
+                .collect()
+        }
+    };
+    // An explicit stack, so deep hierarchies cannot overflow the call stack, and a visited set,
+    // so cycles (which validation does not catch) cannot loop forever.
+    let mut visited = vec![false; document.nodes().len()];
+    let mut stack: Vec<(gltf::Node<'d>, Mat4)> = roots
+        .into_iter()
+        .rev()
+        .map(|node| (node, Mat4::IDENTITY))
+        .collect();
+    let mut draws = Vec::new();
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(corrupt(format!(
+                "invalid glTF: {} is reached twice in the scene (nodes must form trees)",
+                label("node", node.name(), node.index())
+            )));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            if node.skin().is_some() {
+                warnings.push(format!(
+                    "{}: skinning is ignored (the mesh is loaded in its bind pose)",
+                    label("node", node.name(), node.index())
+                ));
+            }
+            draws.push((mesh, world));
+        }
+        let children: Vec<_> = node.children().collect();
+        stack.extend(children.into_iter().rev().map(|child| (child, world)));
+    }
+    Ok(draws)
+}
+
+/// Converts the drawn primitives into the builder, converting materials and decoding
+/// textures on first use.
+struct Loader<'a, 'r> {
+    document: &'a Document,
+    raw: &'a Value,
+    buffers: &'a [Cow<'a, [u8]>],
+    resolver: &'a mut Resolver<'r>,
+    warnings: &'a mut Vec<String>,
+    builder: MeshBuilder,
+    /// Canonical material index and the texture coordinate set it samples, per glTF material.
+    materials: Vec<Option<(u32, u32)>>,
+    default_material: Option<u32>,
+    /// Canonical texture per (image, sampler) pair.
+    textures: HashMap<(usize, Option<usize>), u32>,
+    /// A canonical texture holding each decoded image, so an image is decoded only once.
+    decoded_images: HashMap<usize, u32>,
+    /// Warnings already given, so an instanced mesh does not repeat them.
+    warned: HashSet<String>,
+    /// Whether any point or line primitive was skipped, to explain an empty result.
+    skipped_primitives: bool,
+}
+
+impl Loader<'_, '_> {
+    fn warn(&mut self, message: String) {
+        if self.warned.insert(message.clone()) {
+            self.warnings.push(message);
+        }
+    }
+
+    fn add_mesh(&mut self, mesh: &gltf::Mesh<'_>, world: Mat4) -> Result<(), ErrorKind> {
+        let linear = Mat3::from_mat4(world);
+        let normal_matrix = linear.inverse().transpose();
+        // A mirroring transform turns counter-clockwise triangles clockwise.
+        let flip = linear.determinant() < 0.0;
+        let mesh_label = label("mesh", mesh.name(), mesh.index());
+        for primitive in mesh.primitives() {
+            let context = format!("{mesh_label} primitive {}", primitive.index());
+            if !matches!(
+                primitive.mode(),
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                self.skipped_primitives = true;
+                self.warn(format!(
+                    "{context}: {:?} primitive skipped (only triangles are loaded)",
+                    primitive.mode()
+                ));
+                continue;
+            }
+            if primitive.morph_targets().next().is_some() {
+                self.warn(format!(
+                    "{context}: morph targets are ignored (base shape loaded)"
+                ));
+            }
+            self.add_primitive(&primitive, &context, world, normal_matrix, flip)?;
+        }
+        Ok(())
+    }
+
+    fn add_primitive(
+        &mut self,
+        primitive: &gltf::Primitive<'_>,
+        context: &str,
+        world: Mat4,
+        normal_matrix: Mat3,
+        flip: bool,
+    ) -> Result<(), ErrorKind> {
+        let (material, uv_set) = self.material(primitive.material())?;
+
+        let buffers = self.buffers;
+        let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
+        let position_accessor = primitive
+            .get(&Semantic::Positions)
+            .ok_or_else(|| corrupt(format!("{context} has no POSITION attribute")))?;
+        let positions = self.read(&position_accessor, VEC3_F32, || reader.read_positions())?;
+        let normals = primitive
+            .get(&Semantic::Normals)
+            .map(|accessor| self.read(&accessor, VEC3_F32, || reader.read_normals()))
+            .transpose()?;
+        let uvs = primitive
+            .get(&Semantic::TexCoords(uv_set))
+            .map(|accessor| {
+                self.read(&accessor, TEX_COORD_LAYOUTS, || {
+                    reader.read_tex_coords(uv_set).map(|uvs| uvs.into_f32())
+                })
+            })
+            .transpose()?;
+        let colors = primitive
+            .get(&Semantic::Colors(0))
+            .map(|accessor| {
+                self.read(&accessor, COLOR_LAYOUTS, || {
+                    reader.read_colors(0).map(|colors| colors.into_rgba_f32())
+                })
+            })
+            .transpose()?;
+        let indices = primitive
+            .indices()
+            .map(|accessor| {
+                self.read(&accessor, INDEX_LAYOUTS, || {
+                    reader.read_indices().map(|indices| indices.into_u32())
+                })
+            })
+            .transpose()?;
+
+        let count = positions.len();
+        for (name, len) in [
+            ("NORMAL".to_string(), normals.as_ref().map(Vec::len)),
+            (format!("TEXCOORD_{uv_set}"), uvs.as_ref().map(Vec::len)),
+            ("COLOR_0".to_string(), colors.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len.filter(|&len| len != count) {
+                return Err(corrupt(format!(
+                    "{context}: {name} has {len} elements but POSITION has {count}"
+                )));
+            }
+        }
+        if let Some(&index) = indices.iter().flatten().find(|&&i| i as usize >= count) {
+            return Err(ErrorKind::IndexOutOfRange {
+                context: context.to_string(),
+                index: i64::from(index),
+                count,
+            });
+        }
+        let base = self.builder.positions.len();
+        if base
+            .checked_add(count)
+            .is_none_or(|total| total > u32::MAX as usize)
+        {
+            return Err(corrupt("too many vertices for 32-bit indices"));
+        }
+
+        for i in 0..count {
+            let position = world.transform_point3(Vec3::from(positions[i]));
+            let normal = normals.as_ref().map(|n| {
+                (normal_matrix * Vec3::from(n[i]))
+                    .normalize_or_zero()
+                    .to_array()
+            });
+            self.builder.push_vertex(
+                position.to_array(),
+                normal,
+                uvs.as_ref().map(|uv| uv[i]),
+                colors.as_ref().map(|c| c[i]),
+            );
+        }
+
+        let corner_count = indices.as_ref().map_or(count, Vec::len);
+        let corner = |k: usize| indices.as_ref().map_or(k as u32, |indices| indices[k]);
+        let mode = primitive.mode();
+        if mode == Mode::Triangles && corner_count % 3 != 0 {
+            self.warn(format!(
+                "{context}: {corner_count} corners is not a multiple of 3; the last {} are ignored",
+                corner_count % 3
+            ));
+        }
+        let base = base as u32;
+        for [a, b, c] in assemble(mode, corner_count, corner) {
+            let triangle = if flip { [a, c, b] } else { [a, b, c] };
+            self.builder
+                .push_triangle(triangle.map(|i| base + i), material);
+        }
+        Ok(())
+    }
+
+    /// Checks an accessor (see [`Loader::check_accessor`]) and reads it with the gltf reader.
+    fn read<T, I: Iterator<Item = T>>(
+        &self,
+        accessor: &Accessor<'_>,
+        layouts: &[(DataType, Dimensions)],
+        read: impl FnOnce() -> Option<I>,
+    ) -> Result<Vec<T>, ErrorKind> {
+        self.check_accessor(accessor, layouts)?;
+        let values =
+            read().ok_or_else(|| corrupt(format!("cannot read accessor {}", accessor.index())))?;
+        Ok(values.collect())
+    }
+
+    /// Checks what the gltf reader assumes without checking: a layout it decodes, at least one
+    /// element, strides no smaller than an element, and every byte it reads within its buffer.
+    fn check_accessor(
+        &self,
+        accessor: &Accessor<'_>,
+        layouts: &[(DataType, Dimensions)],
+    ) -> Result<(), ErrorKind> {
+        let index = accessor.index();
+        let layout = (accessor.data_type(), accessor.dimensions());
+        if !layouts.contains(&layout) {
+            return Err(corrupt(format!(
+                "accessor {index}: {:?} of {:?} is not a valid layout for its use",
+                layout.1, layout.0
+            )));
+        }
+        let count = accessor.count();
+        if count == 0 {
+            return Err(corrupt(format!("accessor {index} has no elements")));
+        }
+        let size = accessor.size();
+        match accessor.view() {
+            Some(view) => self.check_span(&view, accessor.offset(), count, size, index)?,
+            None if count > MAX_UNBACKED_ELEMENTS => {
+                return Err(corrupt(format!(
+                    "accessor {index}: {count} elements without a buffer view is too many"
+                )));
+            }
+            None => {}
+        }
+        if let Some(sparse) = accessor.sparse() {
+            let sparse_count = sparse.count();
+            if sparse_count == 0 || sparse_count > count {
+                return Err(corrupt(format!(
+                    "accessor {index}: sparse count {sparse_count} is not in 1..={count}"
+                )));
+            }
+            let indices = sparse.indices();
+            let index_size = indices.index_type().size();
+            self.check_span(
+                &indices.view(),
+                indices.offset(),
+                sparse_count,
+                index_size,
+                index,
+            )?;
+            let values = sparse.values();
+            self.check_span(&values.view(), values.offset(), sparse_count, size, index)?;
+        }
+        Ok(())
+    }
+
+    /// Checks that `count` elements of `size` bytes from `offset` lie within the view, and the
+    /// view within its buffer.
+    fn check_span(
+        &self,
+        view: &gltf::buffer::View<'_>,
+        offset: usize,
+        count: usize,
+        size: usize,
+        accessor: usize,
+    ) -> Result<(), ErrorKind> {
+        let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(corrupt(format!(
+                "accessor {accessor}: buffer view {} has a stride of {stride} bytes, \
+                 less than one {size}-byte element",
+                view.index()
+            )));
+        }
+        view_bytes(self.buffers, view)?;
+        let end = (count - 1)
+            .checked_mul(stride)
+            .and_then(|n| n.checked_add(size))
+            .and_then(|n| n.checked_add(offset));
+        if end.is_none_or(|end| end > view.length()) {
+            return Err(corrupt(format!(
+                "accessor {accessor} reads past the end of buffer view {}",
+                view.index()
+            )));
+        }
+        Ok(())
+    }
+
+    /// The canonical material for a primitive's material, and the texture coordinate set its
+    /// base-colour texture samples (which becomes the canonical UVs of the primitive).
+    fn material(&mut self, material: gltf::Material<'_>) -> Result<(u32, u32), ErrorKind> {
+        let Some(index) = material.index() else {
+            let slot = match self.default_material {
+                Some(slot) => slot,
+                None => {
+                    let slot = self.builder.add_material(Material::default());
+                    *self.default_material.insert(slot)
+                }
+            };
+            return Ok((slot, 0));
+        };
+        if let Some(Some(known)) = self.materials.get(index) {
+            return Ok(*known);
+        }
+        let name = material
+            .name()
+            .map_or_else(|| format!("material {index}"), str::to_string);
+        let raw = self.raw;
+        let extension = |path: &str| raw.pointer(&format!("/materials/{index}/{path}")).is_some();
+        if extension("extensions/KHR_materials_pbrSpecularGlossiness") {
+            self.warn(format!(
+                "material `{name}` uses KHR_materials_pbrSpecularGlossiness, which is ignored \
+                 (its metallic-roughness base colour is used)"
+            ));
+        }
+        let pbr = material.pbr_metallic_roughness();
+        let (texture, uv_set) = match pbr.base_color_texture() {
+            Some(info) => {
+                if extension(
+                    "pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform",
+                ) {
+                    self.warn(format!(
+                        "material `{name}`: KHR_texture_transform on the base-colour texture is ignored"
+                    ));
+                }
+                (Some(self.texture(&info.texture())?), info.tex_coord())
+            }
+            None => (None, 0),
+        };
+        let converted = Material {
+            name,
+            base_color_factor: pbr.base_color_factor(),
+            base_color_texture: texture,
+            alpha_mode: match material.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha_cutoff: material.alpha_cutoff().unwrap_or(DEFAULT_ALPHA_CUTOFF),
+            double_sided: material.double_sided(),
+        };
+        let known = (self.builder.add_material(converted), uv_set);
+        if let Some(slot) = self.materials.get_mut(index) {
+            *slot = Some(known);
+        }
+        Ok(known)
+    }
+
+    /// The canonical texture for a glTF texture: its image (decoded once) with its sampler.
+    fn texture(&mut self, texture: &gltf::Texture<'_>) -> Result<u32, ErrorKind> {
+        let image = texture.source().index();
+        let sampler = texture.sampler();
+        let key = (image, sampler.index());
+        if let Some(&known) = self.textures.get(&key) {
+            return Ok(known);
+        }
+        let decoded = self
+            .decoded_images
+            .get(&image)
+            .and_then(|&known| self.builder.textures.get(known as usize).cloned());
+        let pixels = match decoded {
+            Some(pixels) => pixels,
+            None => self.decode_image(image)?,
+        };
+        let wrap = |mode| match mode {
+            WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+            WrappingMode::Repeat => Wrap::Repeat,
+        };
+        let index = self.builder.textures.len() as u32;
+        self.builder.textures.push(Texture {
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            nearest: sampler.mag_filter() == Some(MagFilter::Nearest),
+            ..pixels
+        });
+        self.decoded_images.entry(image).or_insert(index);
+        self.textures.insert(key, index);
+        Ok(index)
+    }
+
+    /// Reads and decodes one image. Its JSON is read directly because `gltf::Image::source`
+    /// panics on a buffer-view image without a MIME type and on one with neither source.
+    fn decode_image(&mut self, image: usize) -> Result<Texture, ErrorKind> {
+        let json = self
+            .document
+            .as_json()
+            .images
+            .get(image)
+            .ok_or_else(|| corrupt(format!("image {image} does not exist")))?;
+        let fallback_name = || {
+            json.name
+                .clone()
+                .unwrap_or_else(|| format!("image {image}"))
+        };
+        let (name, bytes) = match (&json.buffer_view, &json.uri) {
+            (Some(view), _) => {
+                let view = self
+                    .document
+                    .views()
+                    .nth(view.value())
+                    .ok_or_else(|| corrupt(format!("image {image}: no such buffer view")))?;
+                (
+                    fallback_name(),
+                    Cow::Borrowed(view_bytes(self.buffers, &view)?),
+                )
+            }
+            (None, Some(uri)) => {
+                let name = if uri.starts_with("data:") {
+                    fallback_name()
+                } else {
+                    uri.clone()
+                };
+                (name, Cow::Owned(read_uri(uri, self.resolver)?))
+            }
+            (None, None) => {
+                return Err(corrupt(format!(
+                    "image {image} has neither a uri nor a bufferView"
+                )));
+            }
+        };
+        texture::decode(&name, &bytes)
+    }
+}
+
+/// The bytes of a buffer view, checked to lie within its buffer.
+fn view_bytes<'a>(
+    buffers: &'a [Cow<'a, [u8]>],
+    view: &gltf::buffer::View<'_>,
+) -> Result<&'a [u8], ErrorKind> {
+    let buffer = view.buffer().index();
+    view.offset()
+        .checked_add(view.length())
+        .and_then(|end| buffers.get(buffer)?.get(view.offset()..end))
+        .ok_or_else(|| {
+            corrupt(format!(
+                "buffer view {} extends past the end of buffer {buffer}",
+                view.index()
+            ))
+        })
+}
+
+/// Triangles (as corner numbers of the primitive's vertex or index list, whose `k`-th vertex is
+/// `corner(k)`) in the winding the glTF specification gives each mode.
+fn assemble(mode: Mode, corners: usize, corner: impl Fn(usize) -> u32) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => (0..corners / 3)
+            .map(|t| [corner(3 * t), corner(3 * t + 1), corner(3 * t + 2)])
+            .collect(),
+        // Odd triangles swap their last two corners so that all keep the first one's winding.
+        Mode::TriangleStrip => (0..corners.saturating_sub(2))
+            .map(|i| {
+                let (b, c) = if i % 2 == 0 {
+                    (i + 1, i + 2)
+                } else {
+                    (i + 2, i + 1)
+                };
+                [corner(i), corner(b), corner(c)]
+            })
+            .collect(),
+        Mode::TriangleFan => (1..corners.saturating_sub(1))
+            .map(|i| [corner(0), corner(i), corner(i + 1)])
+            .collect(),
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => Vec::new(),
+    }
+}

@@ -1,0 +1,232 @@
+//! Mesh ingest: every supported model format becomes one canonical [`Mesh`].
+//!
+//! - glTF 2.0 (`.gltf` with external or data-URI buffers and images, `.glb`): every node of
+//!   the default scene with its world transform, every triangle primitive (strips and fans
+//!   converted, points and lines skipped with a warning), base-colour factor, texture and
+//!   vertex colour, alpha mode and cutoff.
+//! - OBJ with MTL (`Kd`, `map_Kd`, `d`), polygons fan-triangulated.
+//! - PLY, ASCII and binary (both byte orders), with vertex colours, normals and UVs when present.
+//!
+//! Loading reads referenced files through a resolver callback, so a caller (the build graph)
+//! can record every file a model depends on. Missing normals are computed angle-weighted with
+//! portable arithmetic, so the same input gives the same bytes on every machine.
+//!
+//! Colour conventions: vertex colours and material factors in the canonical mesh are *linear*
+//! RGBA. glTF stores them linear already; OBJ/MTL and PLY colours are display (sRGB) values and
+//! are converted on load. Texture texels stay sRGB-encoded RGBA8, as in the files. The base
+//! colour of a surface point is `factor x texture(uv) x vertex colour`, multiplied in linear space.
+
+mod builder;
+mod codec;
+mod error;
+mod gltf_load;
+mod normals;
+mod obj;
+mod ply;
+mod texture;
+
+pub use codec::DecodeError;
+pub use error::{ErrorKind, MeshError};
+pub use normals::angle_weighted_normals;
+
+use std::io;
+use std::path::Path;
+
+/// The canonical triangle mesh every stage consumes.
+///
+/// Invariants (checked by the loaders and by [`Mesh::decode`]): at least one triangle; every
+/// index is `< positions.len()`; every position is finite; `normals` has one unit vector per
+/// vertex; `uvs` and `colors`, when present, have one entry per vertex; `triangle_materials`
+/// has one entry per triangle and each is `< materials.len()`; each material's texture index
+/// is `< textures.len()`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// Object-space (glTF: world-space of the default scene) positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Unit normals, one per vertex.
+    pub normals: Vec<[f32; 3]>,
+    /// Texture coordinates (glTF convention: v grows downwards in the image), if any.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Linear RGBA vertex colours, if any.
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// Counter-clockwise triangles (outward normals by the right-hand rule).
+    pub triangles: Vec<[u32; 3]>,
+    /// Material index of each triangle.
+    pub triangle_materials: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+}
+
+/// Surface appearance, reduced to what impostors bake: base colour and alpha cut-outs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGBA multiplier.
+    pub base_color_factor: [f32; 4],
+    /// Index into [`Mesh::textures`] of the base-colour texture (texture coordinate set 0).
+    pub base_color_texture: Option<u32>,
+    pub alpha_mode: AlphaMode,
+    /// Alpha below this is a hole when `alpha_mode` is [`AlphaMode::Mask`] (glTF default 0.5).
+    pub alpha_cutoff: f32,
+    pub double_sided: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: String::from("default"),
+            base_color_factor: [1.0; 4],
+            base_color_texture: None,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            double_sided: false,
+        }
+    }
+}
+
+/// How alpha is interpreted (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AlphaMode {
+    Opaque,
+    /// Alpha-tested: texels under the cutoff are holes, baked as empty relief texels.
+    Mask,
+    /// Blended transparency; impostors treat it as opaque.
+    Blend,
+}
+
+/// A decoded base-colour image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Where it came from (file name or `image N`), for messages.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major RGBA8, colour sRGB-encoded, alpha linear.
+    pub rgba8: Vec<u8>,
+    pub wrap_s: Wrap,
+    pub wrap_t: Wrap,
+    /// Magnification filter: nearest or bilinear.
+    pub nearest: bool,
+}
+
+/// Texture addressing outside `[0, 1]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    Repeat,
+    MirroredRepeat,
+    ClampToEdge,
+}
+
+/// Supported model formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Gltf,
+    Glb,
+    Obj,
+    Ply,
+}
+
+impl Format {
+    /// The format a file name's extension announces (case-insensitive).
+    pub fn from_path(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "gltf" => Some(Format::Gltf),
+            "glb" => Some(Format::Glb),
+            "obj" => Some(Format::Obj),
+            "ply" => Some(Format::Ply),
+            _ => None,
+        }
+    }
+
+    /// Lower-case name, as used in pipeline parameters.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Gltf => "gltf",
+            Format::Glb => "glb",
+            Format::Obj => "obj",
+            Format::Ply => "ply",
+        }
+    }
+}
+
+/// Choices that change the loaded mesh.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Ignore normals in the file and compute angle-weighted ones everywhere.
+    pub recompute_normals: bool,
+}
+
+/// A loaded mesh and the non-fatal problems found on the way.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub mesh: Mesh,
+    /// Human-readable warnings (skipped point/line primitives, ignored features, ...).
+    pub warnings: Vec<String>,
+}
+
+/// Reads a file referenced by a model, given the reference exactly as written in the model
+/// (relative references are relative to the model's folder).
+pub type Resolver<'a> = dyn FnMut(&str) -> io::Result<Vec<u8>> + 'a;
+
+/// Load a model from disk, reading referenced files relative to its folder.
+pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Loaded, MeshError> {
+    let bytes = std::fs::read(path).map_err(|e| ErrorKind::Io(e).in_file(path))?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut resolver = |uri: &str| std::fs::read(dir.join(uri));
+    load(path, &bytes, options, &mut resolver)
+}
+
+/// Load a model from its bytes. `path` names the file in messages and selects the format by
+/// extension; `resolver` reads every other file the model references.
+pub fn load(
+    path: &Path,
+    bytes: &[u8],
+    options: &LoadOptions,
+    resolver: &mut Resolver<'_>,
+) -> Result<Loaded, MeshError> {
+    let format = Format::from_path(path).ok_or_else(|| ErrorKind::UnknownFormat.in_file(path))?;
+    let mut warnings = Vec::new();
+    let builder = match format {
+        Format::Gltf | Format::Glb => gltf_load::load(path, bytes, resolver, &mut warnings)?,
+        Format::Obj => obj::load(path, bytes, resolver, &mut warnings)?,
+        Format::Ply => ply::load(bytes, &mut warnings).map_err(|k| k.in_file(path))?,
+    };
+    let mesh = builder.finish(options).map_err(|k| k.in_file(path))?;
+    Ok(Loaded { mesh, warnings })
+}
+
+impl Mesh {
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the positions.
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in &self.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Serialise to the canonical little-endian byte layout (see `codec.rs`).
+    pub fn encode(&self) -> Vec<u8> {
+        codec::encode(self)
+    }
+
+    /// Parse bytes written by [`Mesh::encode`], checking every invariant.
+    pub fn decode(bytes: &[u8]) -> Result<Mesh, DecodeError> {
+        codec::decode(bytes)
+    }
+}
