@@ -1,0 +1,331 @@
+//! End-to-end tests of `cargo xtask build-assets` on copies of the built-in samples: reuse
+//! across processes, precise invalidation, explanations, corruption recovery, concurrent
+//! builders, bad input and bad configuration.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+const EXE: &str = env!("CARGO_BIN_EXE_xtask");
+
+fn samples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples")
+}
+
+fn shared_models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
+}
+
+/// A temporary project: `assets/` with copies of some samples, a `pipeline.toml`, and the
+/// cache and output inside.
+struct Project {
+    dir: tempfile::TempDir,
+}
+
+impl Project {
+    fn new(sample_folders: &[&str]) -> Project {
+        let dir = tempfile::tempdir().unwrap();
+        for folder in sample_folders {
+            copy_dir(
+                &samples().join(folder),
+                &dir.path().join("assets").join(folder),
+            );
+        }
+        let p = Project { dir };
+        p.config("");
+        p
+    }
+
+    fn path(&self, rel: &str) -> PathBuf {
+        self.dir.path().join(rel)
+    }
+
+    fn config(&self, extra: &str) {
+        fs::write(
+            self.path("pipeline.toml"),
+            format!("[assets]\nroot = \"assets\"\n[output]\ndir = \"out\"\n[cache]\ndir = \"cache\"\n{extra}"),
+        )
+        .unwrap();
+    }
+
+    fn build(&self, args: &[&str]) -> Output {
+        Command::new(EXE)
+            .arg("build-assets")
+            .arg("--config")
+            .arg(self.path("pipeline.toml"))
+            .args(args)
+            .env("CI", "1")
+            .output()
+            .unwrap()
+    }
+
+    fn report(&self) -> Value {
+        serde_json::from_slice(&fs::read(self.path("out/report.json")).unwrap()).unwrap()
+    }
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    fs::create_dir_all(to).unwrap();
+    for entry in fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+    }
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// The `ran` column of the summary line for `stage`.
+fn ran(out: &Output, stage: &str) -> usize {
+    let t = text(out);
+    t.lines()
+        .find(|l| l.split_whitespace().next() == Some(stage))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
+}
+
+/// The report as text, so a mismatch prints readably.
+fn report_text(p: &Project, out: &str) -> String {
+    fs::read_to_string(p.path(out).join("report.json")).unwrap()
+}
+
+fn ok(out: &Output) -> String {
+    assert!(out.status.success(), "build failed:\n{}", text(out));
+    text(out)
+}
+
+fn asset<'a>(report: &'a Value, name: &str) -> &'a Value {
+    report["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["name"] == name)
+        .unwrap_or_else(|| panic!("{name} not in report: {report}"))
+}
+
+#[test]
+fn cold_build_then_reuse_in_a_new_process() {
+    let p = Project::new(&["bunny", "box-vertex-colors", "avocado"]);
+    let first = p.build(&[]);
+    ok(&first);
+    assert_eq!(ran(&first, "ingest"), 3);
+    let report = p.report();
+    let bunny = asset(&report, "bunny/bunny_npm_lowres.obj");
+    assert_eq!(bunny["mesh"]["vertices"], 1839);
+    assert_eq!(bunny["mesh"]["triangles"], 3674);
+    let avocado = asset(&report, "avocado/Avocado.gltf");
+    assert_eq!(avocado["mesh"]["triangles"], 682);
+    assert_eq!(
+        asset(&report, "box-vertex-colors/BoxVertexColors.glb")["mesh"]["has_colors"],
+        true
+    );
+
+    // A second process computes the same keys: nothing runs, same report bytes.
+    let before = report_text(&p, "out");
+    let second = p.build(&[]);
+    let t = ok(&second);
+    assert_eq!(ran(&second, "ingest"), 0, "{t}");
+    assert!(
+        t.contains("[ingest] bunny/bunny_npm_lowres.obj: reused"),
+        "{t}"
+    );
+    assert_eq!(report_text(&p, "out"), before);
+}
+
+#[test]
+fn edits_rerun_exactly_what_they_touch_and_explain_why() {
+    let p = Project::new(&["bunny", "box-vertex-colors", "avocado"]);
+    ok(&p.build(&[]));
+
+    // Touching a file without changing its bytes runs nothing.
+    let bunny = p.path("assets/bunny/bunny_npm_lowres.obj");
+    let f = fs::File::options().append(true).open(&bunny).unwrap();
+    f.set_modified(std::time::SystemTime::now()).unwrap();
+    drop(f);
+    assert_eq!(ran(&p.build(&[]), "ingest"), 0);
+
+    // Editing one model's bytes re-runs only its job.
+    let mut obj = fs::read(&bunny).unwrap();
+    obj.extend_from_slice(b"# edited\n");
+    fs::write(&bunny, obj).unwrap();
+    let out = p.build(&["--explain"]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "ingest"), 1, "{t}");
+    assert!(
+        t.contains("[ingest] bunny/bunny_npm_lowres.obj: ran in")
+            && t.contains("because new input: source changed"),
+        "{t}"
+    );
+
+    // A referenced file (the base-colour texture) is an input; an unused one (the normal map)
+    // is not.
+    let normal_map = p.path("assets/avocado/Avocado_normal.png");
+    let mut png = fs::read(&normal_map).unwrap();
+    png.push(0);
+    fs::write(&normal_map, &png).unwrap();
+    assert_eq!(ran(&p.build(&[]), "ingest"), 0);
+    let base = p.path("assets/avocado/Avocado_baseColor.png");
+    let mut png = fs::read(&base).unwrap();
+    png.push(0); // trailing bytes after IEND: same image, new content hash
+    fs::write(&base, &png).unwrap();
+    let out = p.build(&["--explain"]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "ingest"), 1, "{t}");
+    assert!(
+        t.contains("referenced file `Avocado_baseColor.png` changed"),
+        "{t}"
+    );
+
+    // A parameter override re-runs only the assets it matches, and says which key changed.
+    p.config("[[overrides]]\nassets = \"box-*/**\"\ningest.recompute_normals = true\n");
+    let out = p.build(&["--explain"]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "ingest"), 1, "{t}");
+    assert!(
+        t.contains("[ingest] box-vertex-colors/BoxVertexColors.glb: ran in")
+            && t.contains("parameters changed: recompute_normals: false -> true"),
+        "{t}"
+    );
+}
+
+#[test]
+fn dry_run_changes_nothing() {
+    let p = Project::new(&["bunny"]);
+    let out = p.build(&["--dry-run"]);
+    let t = ok(&out);
+    assert!(t.contains("would run because new job"), "{t}");
+    assert!(!p.path("out/report.json").exists());
+    assert!(!p.path("cache/ac").exists());
+}
+
+#[test]
+fn corrupt_cache_entries_are_reported_and_rebuilt() {
+    let p = Project::new(&["bunny", "box-vertex-colors"]);
+    ok(&p.build(&[]));
+    let good = report_text(&p, "out");
+    // Damage every blob: truncate the big ones, flip a byte in the small ones.
+    for shard in fs::read_dir(p.path("cache/cas")).unwrap() {
+        for blob in fs::read_dir(shard.unwrap().path()).unwrap() {
+            let path = blob.unwrap().path();
+            let mut bytes = fs::read(&path).unwrap();
+            if bytes.len() > 4096 {
+                bytes.truncate(bytes.len() / 2);
+            } else {
+                bytes[1] ^= 1;
+            }
+            fs::write(&path, bytes).unwrap();
+        }
+    }
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert!(
+        t.contains("corrupt cache entry") || t.contains("re-running stage"),
+        "{t}"
+    );
+    assert_eq!(report_text(&p, "out"), good);
+    // And the cache is whole again.
+    assert_eq!(ran(&p.build(&[]), "ingest"), 0);
+}
+
+#[test]
+fn two_builders_share_one_cache_at_the_same_time() {
+    let p = Project::new(&["bunny", "box-vertex-colors", "avocado"]);
+    let spawn = |out: &str| {
+        Command::new(EXE)
+            .args(["build-assets", "--config"])
+            .arg(p.path("pipeline.toml"))
+            .arg("--out")
+            .arg(p.path(out))
+            .env("CI", "1")
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap()
+    };
+    let (a, b) = (spawn("out-a"), spawn("out-b"));
+    let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+    ok(&a);
+    ok(&b);
+    assert_eq!(report_text(&p, "out-a"), report_text(&p, "out-b"));
+    // Whatever interleaving happened, the cache they left is complete and valid.
+    let third = p.build(&[]);
+    ok(&third);
+    assert_eq!(ran(&third, "ingest"), 0);
+}
+
+#[test]
+fn thread_count_does_not_change_outputs() {
+    let p = Project::new(&["bunny", "box-vertex-colors", "avocado"]);
+    ok(&p.build(&[
+        "-j",
+        "1",
+        "--out",
+        p.path("one").to_str().unwrap(),
+        "--cache",
+        p.path("c1").to_str().unwrap(),
+    ]));
+    ok(&p.build(&[
+        "-j",
+        "2",
+        "--out",
+        p.path("two").to_str().unwrap(),
+        "--cache",
+        p.path("c2").to_str().unwrap(),
+    ]));
+    assert_eq!(report_text(&p, "one"), report_text(&p, "two"));
+}
+
+#[test]
+fn a_broken_model_fails_alone_with_a_clear_message() {
+    let p = Project::new(&["bunny", "box-vertex-colors"]);
+    let glb = fs::read(shared_models().join("gltf/Duck/Duck.glb")).unwrap();
+    fs::create_dir_all(p.path("assets/broken")).unwrap();
+    fs::write(p.path("assets/broken/duck.glb"), &glb[..glb.len() / 3]).unwrap();
+    let out = p.build(&[]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(1), "{t}");
+    assert!(
+        t.contains("error: [ingest] broken/duck.glb:") && t.contains("duck.glb:"),
+        "{t}"
+    );
+    let report = p.report();
+    assert_eq!(asset(&report, "broken/duck.glb")["status"], "failed");
+    assert_eq!(asset(&report, "bunny/bunny_npm_lowres.obj")["status"], "ok");
+}
+
+#[test]
+fn configuration_errors_name_the_file_and_the_key() {
+    let p = Project::new(&["bunny"]);
+    p.config("[ingest]\nrecompute_normal = true\n");
+    let out = p.build(&[]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("pipeline.toml") && t.contains("unknown field `recompute_normal`"),
+        "{t}"
+    );
+    assert!(t.contains("recompute_normals"), "{t}");
+    assert!(
+        !p.path("out").exists(),
+        "nothing written on a configuration error"
+    );
+
+    p.config("");
+    let out = Command::new(EXE)
+        .args(["build-assets", "--config"])
+        .arg(p.path("pipeline.toml"))
+        .arg("--assets")
+        .arg(p.path("nowhere"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(text(&out).contains("nowhere") && text(&out).contains("does not exist"));
+}

@@ -1,0 +1,124 @@
+//! `cargo xtask bench ...`: benchmarks whose figures go into issue notes. Each compares runs
+//! within one invocation and reports medians, because the machine is shared and noisy.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::{Duration, Instant};
+
+use clap::Subcommand;
+
+#[derive(Subcommand)]
+pub enum Bench {
+    /// Time a no-op rebuild (nothing changed) of many small assets: copies of the samples.
+    NoopRebuild {
+        /// How many assets to build.
+        #[arg(long, default_value_t = 100)]
+        assets: usize,
+        /// How many timed no-op rebuilds.
+        #[arg(long, default_value_t = 10)]
+        runs: usize,
+    },
+}
+
+pub fn run(which: Bench) -> ExitCode {
+    let result = match which {
+        Bench::NoopRebuild { assets, runs } => noop_rebuild(assets, runs),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn samples_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples")
+}
+
+/// Copy each sample's folder round-robin until `count` assets exist under `dest`.
+fn copy_samples(dest: &Path, count: usize) -> Result<(), String> {
+    let mut folders: Vec<PathBuf> = std::fs::read_dir(samples_dir())
+        .map_err(|e| format!("cannot list {}: {e}", samples_dir().display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    folders.sort();
+    if folders.is_empty() {
+        return Err("no sample folders".into());
+    }
+    for i in 0..count {
+        let from = &folders[i % folders.len()];
+        let to = dest.join(format!(
+            "{i:04}-{}",
+            from.file_name().unwrap().to_string_lossy()
+        ));
+        std::fs::create_dir_all(&to).map_err(|e| e.to_string())?;
+        for f in std::fs::read_dir(from).map_err(|e| e.to_string())? {
+            let f = f.map_err(|e| e.to_string())?.path();
+            if f.is_file() {
+                std::fs::copy(&f, to.join(f.file_name().unwrap())).map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Run `xtask build-assets` on the benchmark folder; returns its wall time and how many
+/// ingest jobs ran.
+fn timed_build(config: &Path) -> Result<(Duration, usize), String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let out = Command::new(exe)
+        .args(["build-assets", "--quiet", "--config"])
+        .arg(config)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let elapsed = start.elapsed();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        return Err(format!(
+            "build failed:\n{stdout}{}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let ran = stdout
+        .lines()
+        .find(|l| l.starts_with("ingest"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|n| n.parse().ok())
+        .ok_or_else(|| format!("no summary in the output:\n{stdout}"))?;
+    Ok((elapsed, ran))
+}
+
+fn noop_rebuild(assets: usize, runs: usize) -> Result<(), String> {
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    copy_samples(&dir.path().join("assets"), assets)?;
+    let config = dir.path().join("pipeline.toml");
+    std::fs::write(&config, "[assets]\nroot = \"assets\"\n").map_err(|e| e.to_string())?;
+    // Let the copies age past the stat memo's racy window, as real sources would have.
+    std::thread::sleep(ori_graph::RACY_WINDOW + Duration::from_millis(100));
+    let (cold, ran) = timed_build(&config)?;
+    println!(
+        "cold build of {assets} assets: {:.3} s ({ran} ingest jobs ran)",
+        cold.as_secs_f64()
+    );
+    let mut times = Vec::new();
+    for _ in 0..runs {
+        let (t, ran) = timed_build(&config)?;
+        if ran != 0 {
+            return Err(format!("a no-op rebuild ran {ran} jobs"));
+        }
+        times.push(t);
+    }
+    times.sort();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    println!(
+        "no-op rebuild of {assets} assets, {runs} runs (whole process): median {:.1} ms, min {:.1} ms, max {:.1} ms (target < 300 ms)",
+        ms(times[times.len() / 2]),
+        ms(times[0]),
+        ms(times[times.len() - 1])
+    );
+    Ok(())
+}

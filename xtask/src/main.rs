@@ -1,0 +1,101 @@
+//! `cargo xtask`: the pipeline's command line. Each subcommand is a thin layer over a library
+//! crate, so everything it does is also testable and usable from code.
+
+mod bench;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use ori_graph::ProgressMode;
+use ori_pipeline::{BuildOptions, build_assets, format_summary};
+
+#[derive(Parser)]
+#[command(
+    name = "cargo xtask",
+    about = "Omni-directional relief impostor asset pipeline"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build every asset found under the assets folder, reusing cached results.
+    BuildAssets(BuildArgs),
+    /// Run a benchmark and print its figures.
+    Bench {
+        #[command(subcommand)]
+        which: bench::Bench,
+    },
+}
+
+#[derive(clap::Args)]
+struct BuildArgs {
+    /// Pipeline configuration.
+    #[arg(long, default_value = "pipeline.toml")]
+    config: PathBuf,
+    /// Assets folder (default: `[assets] root` of the configuration).
+    #[arg(long)]
+    assets: Option<PathBuf>,
+    /// Output folder (default: `[output] dir`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Cache folder (default: `[cache] dir`).
+    #[arg(long)]
+    cache: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(short = 'j', long = "jobs", default_value_t = 0)]
+    jobs: usize,
+    /// Say why each job that ran had to run.
+    #[arg(long)]
+    explain: bool,
+    /// Show what would run, and why, without running anything or writing outputs.
+    #[arg(long)]
+    dry_run: bool,
+    /// Print only warnings, errors and the summary.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::BuildAssets(args) => build(args),
+        Command::Bench { which } => bench::run(which),
+    }
+}
+
+fn build(args: BuildArgs) -> ExitCode {
+    let progress = if args.quiet {
+        ProgressMode::Quiet
+    } else {
+        ProgressMode::detect()
+    };
+    let options = BuildOptions {
+        config: args.config,
+        assets: args.assets,
+        out: args.out,
+        cache: args.cache,
+        threads: args.jobs,
+        explain: args.explain,
+        dry_run: args.dry_run,
+        progress,
+    };
+    match build_assets(&options) {
+        Ok(summary) => {
+            println!("{}", format_summary(&summary));
+            if summary.failed_jobs > 0 {
+                eprintln!("error: {} job(s) failed (see above)", summary.failed_jobs);
+                ExitCode::from(1)
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
