@@ -159,6 +159,8 @@ fn edits_rerun_exactly_what_they_touch_and_explain_why() {
     let out = p.build(&["--explain"]);
     let t = ok(&out);
     assert_eq!(ran(&out, "ingest"), 1, "{t}");
+    // A comment changes the file but not the mesh: the cascade stops (early cutoff).
+    assert_eq!((ran(&out, "views"), ran(&out, "bake")), (0, 0), "{t}");
     assert!(
         t.contains("[ingest] bunny/bunny_npm_lowres.obj: ran in")
             && t.contains("because new input: source changed"),
@@ -183,6 +185,33 @@ fn edits_rerun_exactly_what_they_touch_and_explain_why() {
         t.contains("referenced file `Avocado_baseColor.png` changed"),
         "{t}"
     );
+
+    // Moving a vertex changes the mesh: views and baking follow.
+    let text = fs::read_to_string(&bunny).unwrap();
+    let moved = text.replacen("\nv ", "\nv 0.001 0.002 0.003 # was: ", 1);
+    fs::write(&bunny, moved).unwrap();
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert_eq!(
+        (ran(&out, "ingest"), ran(&out, "views"), ran(&out, "bake")),
+        (1, 1, 1),
+        "{t}"
+    );
+
+    // A bake parameter re-runs baking only, for every asset.
+    p.config("[bake]\nresolution = 128\n");
+    let out = p.build(&["--explain"]);
+    let t = ok(&out);
+    assert_eq!(
+        (ran(&out, "ingest"), ran(&out, "views"), ran(&out, "bake")),
+        (0, 0, 3),
+        "{t}"
+    );
+    assert!(
+        t.contains("parameters changed: resolution: 256 -> 128"),
+        "{t}"
+    );
+    p.config("");
 
     // A parameter override re-runs only the assets it matches, and says which key changed.
     p.config("[[overrides]]\nassets = \"box-*/**\"\ningest.recompute_normals = true\n");
@@ -328,4 +357,21 @@ fn configuration_errors_name_the_file_and_the_key() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(text(&out).contains("nowhere") && text(&out).contains("does not exist"));
+}
+
+#[test]
+fn dump_maps_writes_a_picture_of_every_map() {
+    let p = Project::new(&["bunny"]);
+    let dir = p.path("maps");
+    ok(&p.build(&["--dump-maps", dir.to_str().unwrap()]));
+    let folder = dir.join("bunny/bunny_npm_lowres.obj");
+    let mut names: Vec<String> = fs::read_dir(&folder)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 60, "{names:?}");
+    assert_eq!(names[0], "map-00-albedo.png");
+    let png = fs::read(folder.join("map-19-depth.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
 }

@@ -18,11 +18,19 @@ pub enum Bench {
         #[arg(long, default_value_t = 10)]
         runs: usize,
     },
+    /// Time view planning (default strategy) plus baking of 20 relief maps at 256 x 256 on
+    /// real models of growing size, with the default thread pool.
+    Bake {
+        /// Timed runs per model (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+    },
 }
 
 pub fn run(which: Bench) -> ExitCode {
     let result = match which {
         Bench::NoopRebuild { assets, runs } => noop_rebuild(assets, runs),
+        Bench::Bake { runs } => bake(runs),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -120,5 +128,62 @@ fn noop_rebuild(assets: usize, runs: usize) -> Result<(), String> {
         ms(times[0]),
         ms(times[times.len() - 1])
     );
+    Ok(())
+}
+
+fn shared_models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
+}
+
+fn median(mut times: Vec<Duration>) -> Duration {
+    times.sort();
+    times[times.len() / 2]
+}
+
+fn bake(runs: usize) -> Result<(), String> {
+    let models = [
+        "stanford/bunny/bunny_npm_lowres.obj",
+        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
+        "stanford/bunny/stanford-bunny.obj",
+        "stanford/dragon/dragon_res2_binary.ply",
+    ];
+    let views = ori_views::ViewParams::default();
+    let bake = ori_bake::BakeParams::default();
+    println!(
+        "views ({:?}, n = {}) + bake ({} maps at {}^2, supersample {}), {} threads, median of {runs}",
+        views.strategy,
+        views.count,
+        views.count,
+        bake.resolution,
+        bake.supersample,
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<52} {:>8} {:>9} {:>9} {:>9}",
+        "model", "faces", "views s", "bake s", "total s"
+    );
+    for rel in models {
+        let path = shared_models().join(rel);
+        let mesh = ori_mesh::load_file(&path, &ori_mesh::LoadOptions::default())
+            .map_err(|e| e.to_string())?
+            .mesh;
+        let (mut tv, mut tb) = (Vec::new(), Vec::new());
+        for _ in 0..runs {
+            let start = Instant::now();
+            let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
+            tv.push(start.elapsed());
+            let start = Instant::now();
+            ori_bake::bake(&mesh, &plan.directions, &bake).map_err(|e| e.to_string())?;
+            tb.push(start.elapsed());
+        }
+        let (v, b) = (median(tv), median(tb));
+        println!(
+            "{rel:<52} {:>8} {:>9.3} {:>9.3} {:>9.3}",
+            mesh.triangle_count(),
+            v.as_secs_f64(),
+            b.as_secs_f64(),
+            (v + b).as_secs_f64()
+        );
+    }
     Ok(())
 }

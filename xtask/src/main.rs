@@ -2,6 +2,7 @@
 //! crate, so everything it does is also testable and usable from code.
 
 mod bench;
+mod compress;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -29,6 +30,8 @@ enum Command {
         #[command(subcommand)]
         which: bench::Bench,
     },
+    /// Compress a PNG into a KTX2 texture (BC1 albedo, BC4, BC5 normals).
+    CompressTexture(compress::Args),
 }
 
 #[derive(clap::Args)]
@@ -57,6 +60,9 @@ struct BuildArgs {
     /// Print only warnings, errors and the summary.
     #[arg(short, long)]
     quiet: bool,
+    /// Also write PNG pictures of every baked relief map into DIR/<asset>/.
+    #[arg(long, value_name = "DIR")]
+    dump_maps: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -64,6 +70,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::BuildAssets(args) => build(args),
         Command::Bench { which } => bench::run(which),
+        Command::CompressTexture(args) => compress::run(args),
     }
 }
 
@@ -82,6 +89,7 @@ fn build(args: BuildArgs) -> ExitCode {
         explain: args.explain,
         dry_run: args.dry_run,
         progress,
+        dump_maps: args.dump_maps,
     };
     match build_assets(&options) {
         Ok(summary) => {

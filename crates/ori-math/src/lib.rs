@@ -110,6 +110,87 @@ pub fn linear_to_srgb(l: f64) -> f64 {
     }
 }
 
+/// Natural logarithm of a positive finite `x` (0 gives negative infinity). The exponent is
+/// split off through the bit pattern, the mantissa `m` in `[1, 2)` goes through
+/// `ln m = 2 atanh((m - 1) / (m + 1))` whose series converges fast for `|s| <= 1/3`.
+pub fn ln(x: f64) -> f64 {
+    if x == 0.0 {
+        return f64::NEG_INFINITY;
+    }
+    if x.is_nan() || x < 0.0 || x.is_infinite() {
+        return f64::NAN;
+    }
+    let (mut m, mut e) = (x, 0i32);
+    if m < f64::MIN_POSITIVE {
+        m *= (1u64 << 60) as f64;
+        e -= 60;
+    }
+    let bits = m.to_bits();
+    e += ((bits >> 52) & 0x7ff) as i32 - 1023;
+    let m = f64::from_bits((bits & !(0x7ff << 52)) | (1023 << 52));
+    let s = (m - 1.0) / (m + 1.0);
+    let s2 = s * s;
+    let mut sum = 0.0;
+    for k in (0..20).rev() {
+        sum = sum * s2 + 1.0 / (2 * k + 1) as f64;
+    }
+    e as f64 * std::f64::consts::LN_2 + 2.0 * s * sum
+}
+
+/// `log2(x)` via [`ln`].
+pub fn log2(x: f64) -> f64 {
+    ln(x) / std::f64::consts::LN_2
+}
+
+/// Sine and cosine of `x` radians, `(sin x, cos x)`.
+///
+/// `x` is reduced to `r` in `[-pi/4, pi/4]` around the nearest multiple `k` of pi/2 with a
+/// two-part pi/2 (Cody-Waite: `k * PIO2_HI` is exact for `|k| < 2^20`), then the Taylor series
+/// run to `r^17` (sine) and `r^16` (cosine), whose next terms are below 3e-18. The error is
+/// about 1e-16 while `|x|` is below about 1.6e6 (`|k| < 2^20`); larger arguments lose
+/// accuracy, never determinism.
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    // pi/2 = PIO2_HI + PIO2_LO, PIO2_HI with its low 20 mantissa bits zero (fdlibm's split).
+    const PIO2_HI: f64 = 1.570_796_326_734_125_6;
+    const PIO2_LO: f64 = 6.077_100_506_506_192e-11;
+    if !x.is_finite() {
+        return (f64::NAN, f64::NAN);
+    }
+    let k = (x * std::f64::consts::FRAC_2_PI).round();
+    let r = (x - k * PIO2_HI) - k * PIO2_LO;
+    let r2 = r * r;
+    // Horner from the highest term: sin r = r (1 - r^2/3! + ...), cos r = 1 - r^2/2! + ...
+    let (mut s, mut c) = (0.0, 0.0);
+    for n in (0..9).rev() {
+        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+        s = s * r2 + sign / factorial(2 * n + 1);
+        c = c * r2 + sign / factorial(2 * n);
+    }
+    let (s, c) = (r * s, c);
+    // Quadrant of k (k mod 4, also for negative k).
+    match (k as i64).rem_euclid(4) {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// `n!` as `f64`, exact for `n <= 22`.
+fn factorial(n: u32) -> f64 {
+    (2..=n).fold(1.0, |acc, k| acc * k as f64)
+}
+
+/// Sine of `x` radians; see [`sin_cos`].
+pub fn sin(x: f64) -> f64 {
+    sin_cos(x).0
+}
+
+/// Cosine of `x` radians; see [`sin_cos`].
+pub fn cos(x: f64) -> f64 {
+    sin_cos(x).1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -147,6 +228,41 @@ mod tests {
             assert!((srgb_to_linear(c) - exact).abs() < 1e-12, "{i}");
             assert!((linear_to_srgb(srgb_to_linear(c)) - c).abs() < 1e-9, "{i}");
         }
+    }
+
+    #[test]
+    fn ln_matches_libm() {
+        for &x in &[
+            1e-300, 1e-10, 0.1, 0.5, 1.0, 1.5, 2.0, 3.0, 10.0, 12345.678, 1e300,
+        ] {
+            assert!(
+                (ln(x) - x.ln()).abs() <= 1e-14 * x.ln().abs().max(1.0),
+                "ln({x})"
+            );
+        }
+        assert!((ln(5e-320) - 5e-320f64.ln()).abs() < 1e-9);
+        assert_eq!(ln(0.0), f64::NEG_INFINITY);
+        assert!(ln(-1.0).is_nan());
+        assert!((log2(1024.0) - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sin_cos_match_libm() {
+        let mut worst: f64 = 0.0;
+        for i in -20_000..=20_000 {
+            let x = i as f64 * 1e-3 * PI;
+            let (s, c) = sin_cos(x);
+            worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
+        }
+        assert!(worst < 1e-15, "max error {worst}");
+        for x in [1e-300, 1e-8, 0.1, FRAC_PI_4, 1.0, 12345.678, -98765.4321] {
+            assert!(
+                (sin(x) - x.sin()).abs() < 1e-12 && (cos(x) - x.cos()).abs() < 1e-12,
+                "{x}"
+            );
+        }
+        assert_eq!(sin_cos(0.0), (0.0, 1.0));
+        assert!(sin(f64::INFINITY).is_nan() && cos(f64::NAN).is_nan());
     }
 
     #[test]

@@ -83,6 +83,10 @@ impl Default for OutputConfig {
 pub struct StageParams {
     #[serde(default)]
     pub ingest: IngestParams,
+    #[serde(default)]
+    pub views: ori_views::ViewParams,
+    #[serde(default)]
+    pub bake: ori_bake::BakeParams,
 }
 
 /// `[ingest]`: mesh loading.
@@ -115,6 +119,10 @@ struct ConfigFile {
     #[serde(default)]
     ingest: Option<toml::Table>,
     #[serde(default)]
+    views: Option<toml::Table>,
+    #[serde(default)]
+    bake: Option<toml::Table>,
+    #[serde(default)]
     overrides: Vec<OverrideFile>,
 }
 
@@ -125,6 +133,10 @@ struct OverrideFile {
     assets: String,
     #[serde(default)]
     ingest: Option<toml::Table>,
+    #[serde(default)]
+    views: Option<toml::Table>,
+    #[serde(default)]
+    bake: Option<toml::Table>,
 }
 
 /// A glob where `*` stays within one path component and `**` crosses them.
@@ -135,10 +147,13 @@ pub(crate) fn glob(pattern: &str) -> Result<GlobMatcher, globset::Error> {
         .compile_matcher())
 }
 
-fn stage_tables(ingest: Option<toml::Table>) -> toml::Table {
+/// The stage sections present in a file (or an override), by name.
+fn stage_tables(sections: [(&str, Option<toml::Table>); 3]) -> toml::Table {
     let mut t = toml::Table::new();
-    if let Some(ingest) = ingest {
-        t.insert("ingest".into(), toml::Value::Table(ingest));
+    for (name, section) in sections {
+        if let Some(section) = section {
+            t.insert(name.into(), toml::Value::Table(section));
+        }
     }
     t
 }
@@ -155,8 +170,13 @@ fn merge(base: &mut toml::Table, over: &toml::Table) {
     }
 }
 
+/// Deserialise stage sections and check their values.
 fn to_params(table: toml::Table) -> Result<StageParams, String> {
-    StageParams::deserialize(toml::Value::Table(table)).map_err(|e| e.message().to_string())
+    let params =
+        StageParams::deserialize(toml::Value::Table(table)).map_err(|e| e.message().to_string())?;
+    params.views.validate().map_err(|e| e.to_string())?;
+    params.bake.validate().map_err(|e| e.to_string())?;
+    Ok(params)
 }
 
 impl Config {
@@ -177,13 +197,17 @@ impl Config {
             message,
         };
         let file: ConfigFile = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
-        let stages = stage_tables(file.ingest);
+        let stages = stage_tables([
+            ("ingest", file.ingest),
+            ("views", file.views),
+            ("bake", file.bake),
+        ]);
         to_params(stages.clone()).map_err(fail)?;
         let mut overrides = Vec::new();
         for (i, o) in file.overrides.into_iter().enumerate() {
             let what = format!("[[overrides]] #{} (assets = {:?})", i + 1, o.assets);
             let matcher = glob(&o.assets).map_err(|e| fail(format!("{what}: {e}")))?;
-            let over = stage_tables(o.ingest);
+            let over = stage_tables([("ingest", o.ingest), ("views", o.views), ("bake", o.bake)]);
             let mut merged = stages.clone();
             merge(&mut merged, &over);
             to_params(merged).map_err(|e| fail(format!("{what}: {e}")))?;
@@ -257,9 +281,14 @@ mod tests {
         assert!(e.starts_with("conf/pipeline.toml: "), "{e}");
         assert!(e.contains("unknown field `recompute_normal`"), "{e}");
         assert!(e.contains("recompute_normals"), "{e}");
-        let e = parse("[bake]\nn = 3\n").unwrap_err();
+        let e = parse("[baking]\nn = 3\n").unwrap_err();
         assert!(
-            e.contains("unknown field `bake`") && e.contains("ingest"),
+            e.contains("unknown field `baking`") && e.contains("bake"),
+            "{e}"
+        );
+        let e = parse("[bake]\nresolutoin = 3\n").unwrap_err();
+        assert!(
+            e.contains("`resolutoin`") && e.contains("resolution"),
             "{e}"
         );
         let e = parse("[[overrides]]\nassets = \"t/**\"\ningest = { nope = 1 }\n").unwrap_err();
@@ -269,6 +298,10 @@ mod tests {
         );
         let e = parse("[ingest]\nrecompute_normals = 3\n").unwrap_err();
         assert!(e.contains("invalid type"), "{e}");
+        let e = parse("[views]\ncount = 7\n").unwrap_err();
+        assert!(e.contains("views.count = 7"), "{e}");
+        let e = parse("[[overrides]]\nassets = \"*\"\nbake.supersample = 9\n").unwrap_err();
+        assert!(e.contains("bake.supersample = 9"), "{e}");
     }
 
     #[test]

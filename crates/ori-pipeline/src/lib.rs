@@ -8,6 +8,7 @@
 pub mod config;
 pub mod discover;
 pub mod ingest;
+pub mod stages;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -46,6 +47,8 @@ pub struct BuildOptions {
     pub explain: bool,
     pub dry_run: bool,
     pub progress: ProgressMode,
+    /// Write PNG pictures of every relief map into this folder.
+    pub dump_maps: Option<PathBuf>,
 }
 
 /// The jobs of one asset.
@@ -53,11 +56,26 @@ pub struct BuildOptions {
 pub struct AssetJobs {
     pub asset: Asset,
     pub ingest: JobId,
+    pub views: JobId,
+    pub bake: JobId,
+}
+
+impl AssetJobs {
+    /// Every job of the asset, upstream first.
+    pub fn all(&self) -> [JobId; 3] {
+        [self.ingest, self.views, self.bake]
+    }
 }
 
 /// Build the job graph for `assets` under `config`.
 pub fn plan(config: &Config, assets: &[Asset]) -> (Graph, Vec<AssetJobs>) {
     let ingest_stage: Arc<dyn ori_graph::Stage> = Arc::new(ingest::IngestStage);
+    let views_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::ViewsStage);
+    let bake_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::BakeStage);
+    let output = |job: JobId, name: &str| Input::Output {
+        job,
+        name: name.to_string(),
+    };
     let mut graph = Graph::new();
     let mut jobs = Vec::new();
     for asset in assets {
@@ -72,12 +90,33 @@ pub fn plan(config: &Config, assets: &[Asset]) -> (Graph, Vec<AssetJobs>) {
             },
             inputs: vec![("source".into(), Input::Source(asset.path.clone()))],
         });
+        let views = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: views_stage.clone(),
+            params: to_json(&params.views),
+            inputs: vec![(ingest::MESH.into(), output(ingest, ingest::MESH))],
+        });
+        let bake = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: bake_stage.clone(),
+            params: to_json(&params.bake),
+            inputs: vec![
+                (ingest::MESH.into(), output(ingest, ingest::MESH)),
+                (stages::VIEWS.into(), output(views, stages::VIEWS)),
+            ],
+        });
         jobs.push(AssetJobs {
             asset: asset.clone(),
             ingest,
+            views,
+            bake,
         });
     }
     (graph, jobs)
+}
+
+fn to_json<T: Serialize>(value: &T) -> serde_json::Value {
+    serde_json::to_value(value).expect("parameters serialise to JSON")
 }
 
 /// Counts and times of a finished build.
@@ -115,6 +154,8 @@ struct AssetReport {
     warnings: Vec<String>,
     mesh: Option<ingest::MeshSummary>,
     mesh_hash: Option<String>,
+    /// Content hash of the baked relief maps.
+    maps_hash: Option<String>,
 }
 
 /// `report.json`: what was built. Timings live in the summary, which is printed, so the
@@ -165,22 +206,47 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
     let mut report = Report { assets: Vec::new() };
     let mut unreadable_outputs = 0;
     for j in &jobs {
+        // Built now or reused: the same bytes either way, so the same status.
+        let mut status = "ok";
+        let mut error = None;
+        for id in j.all() {
+            match &build.result(id).outcome {
+                Outcome::Reused | Outcome::Ran(_) => {}
+                Outcome::WouldRun(_) => status = "not built (dry run)",
+                Outcome::Failed(m) => {
+                    status = "failed";
+                    error = Some(m.clone());
+                    break;
+                }
+                Outcome::Skipped => status = "failed",
+            }
+        }
         let result = build.result(j.ingest);
-        let (status, error) = match &result.outcome {
-            // Built now or reused: the same bytes either way, so the same status.
-            Outcome::Reused | Outcome::Ran(_) => ("ok", None),
-            Outcome::WouldRun(_) => ("not built (dry run)", None),
-            Outcome::Failed(m) => ("failed", Some(m.clone())),
-            Outcome::Skipped => ("skipped", None),
-        };
+        let warnings = j
+            .all()
+            .iter()
+            .flat_map(|&id| build.result(id).warnings.clone())
+            .collect();
         let mut entry = AssetReport {
             name: j.asset.name.clone(),
             status,
             error,
-            warnings: result.warnings.clone(),
+            warnings,
             mesh: None,
             mesh_hash: result.outputs.get(ingest::MESH).map(|b| b.hash.to_hex()),
+            maps_hash: build
+                .result(j.bake)
+                .outputs
+                .get(stages::MAPS)
+                .map(|b| b.hash.to_hex()),
         };
+        if let Some(dir) = options.dump_maps.as_ref().filter(|_| status == "ok")
+            && let Err(e) = dump_maps(&build, j, dir)
+        {
+            unreadable_outputs += 1;
+            entry.status = "failed";
+            entry.error = Some(e);
+        }
         if matches!(result.outcome, Outcome::Reused | Outcome::Ran(_)) {
             match build.read_output(j.ingest, ingest::SUMMARY) {
                 Ok(bytes) => entry.mesh = serde_json::from_slice(&bytes).ok(),
@@ -233,6 +299,19 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         dry_run: options.dry_run,
         report: report_path,
     })
+}
+
+/// Write `<dir>/<asset>/map-NN-{depth,normal,albedo}.png` for every relief map of an asset.
+fn dump_maps(build: &ori_graph::Build<'_>, jobs: &AssetJobs, dir: &Path) -> Result<(), String> {
+    let bytes = build
+        .read_output(jobs.bake, stages::MAPS)
+        .map_err(|e| e.to_string())?;
+    let set = stages::decode_maps(&bytes)?;
+    let folder = dir.join(&jobs.asset.name);
+    for (i, map) in set.maps.iter().enumerate() {
+        ori_bake::write_pngs(map, &folder, &format!("map-{i:02}"))?;
+    }
+    Ok(())
 }
 
 fn secs(d: Duration) -> f64 {

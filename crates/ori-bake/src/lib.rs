@@ -1,0 +1,319 @@
+//! Relief-map baking.
+//!
+//! For each planned direction the mesh is rendered orthographically into a square relief map
+//! (the guide's "Relief texel"): depth (8 bits, 0 at the near plane, 254 at the far side of
+//! the object, 255 = empty: the ray passes), the shading normal in the impostor frame (x and
+//! y stored, z >= 0 rebuilt), and the albedo (base-colour factor x texture x vertex colour,
+//! sRGB). Alpha-tested (MASK) materials cut holes.
+//!
+//! Choices:
+//! - Depth and coverage come from the texel centre, so every non-empty texel lies on the
+//!   surface within half a depth step. Colour and normal are averaged over `supersample`^2
+//!   samples that hit the surface (antialiasing without mixing in background).
+//! - Textures are minified through a mip chain (level picked per triangle from its texel-to-
+//!   sample ratio) and bilinear filtering, in linear space.
+//! - Empty texels get colour and normal by pull-push fill from the nearest surface, so
+//!   filtering and mipmaps never bleed background into the silhouette.
+//! - Every map is computed by one thread in a fixed order; maps run in parallel, so the result
+//!   is bit-identical for any thread count. No NaN reaches a map: non-finite values are caught
+//!   where they could arise and the mesh's positions are finite by construction.
+
+mod codec;
+mod fill;
+mod png;
+mod sample;
+
+use ori_mesh::{AlphaMode, Mesh};
+use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize, rasterize_scales};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+pub use codec::DecodeError;
+
+/// The depth code of an empty texel.
+pub const EMPTY_DEPTH: u8 = 255;
+/// Depth codes 0..=MAX_DEPTH span the object's depth range.
+pub const MAX_DEPTH: u8 = 254;
+
+/// `[bake]` parameters.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BakeParams {
+    /// Relief-map edge in texels (power of two recommended for mipmaps and block compression).
+    pub resolution: u32,
+    /// Colour and normal samples per texel edge: 1 (no antialiasing), 2 or 4.
+    pub supersample: u32,
+    /// Empty texels kept around the object's projection on each side.
+    pub margin: u32,
+}
+
+impl Default for BakeParams {
+    fn default() -> Self {
+        BakeParams {
+            resolution: 256,
+            supersample: 2,
+            margin: 2,
+        }
+    }
+}
+
+impl BakeParams {
+    /// Check every field, with a message that names the key and what it accepts.
+    pub fn validate(&self) -> Result<(), BakeError> {
+        if !(8..=8192).contains(&self.resolution) {
+            return Err(BakeError::Params(format!(
+                "bake.resolution = {} must be 8 to 8192",
+                self.resolution
+            )));
+        }
+        if ![1, 2, 4].contains(&self.supersample) {
+            return Err(BakeError::Params(format!(
+                "bake.supersample = {} must be 1, 2 or 4",
+                self.supersample
+            )));
+        }
+        if self.margin >= self.resolution / 4 {
+            return Err(BakeError::Params(format!(
+                "bake.margin = {} must be less than a quarter of the resolution ({})",
+                self.margin, self.resolution
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// One relief map and the impostor quad it belongs to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReliefMap {
+    /// Where the map is seen from: its frame, quad window and depth range.
+    pub view: OrthoView,
+    /// `size^2` depth codes, row-major, row 0 at the top (+v).
+    pub depth: Vec<u8>,
+    /// `size^2` normal (x, y) in the impostor frame, each `round((c + 1) / 2 * 255)`.
+    pub normal: Vec<[u8; 2]>,
+    /// `size^2` sRGB albedo.
+    pub albedo: Vec<[u8; 3]>,
+}
+
+impl ReliefMap {
+    pub fn size(&self) -> u32 {
+        self.view.size
+    }
+
+    /// Relief depth in [0, 1] of a depth code (None when empty).
+    pub fn depth01(code: u8) -> Option<f64> {
+        (code != EMPTY_DEPTH).then(|| f64::from(code) / f64::from(MAX_DEPTH))
+    }
+
+    /// Unit normal in the impostor frame rebuilt from the stored (x, y).
+    pub fn decode_normal(n: [u8; 2]) -> [f64; 3] {
+        let x = f64::from(n[0]) / 255.0 * 2.0 - 1.0;
+        let y = f64::from(n[1]) / 255.0 * 2.0 - 1.0;
+        let z = (1.0 - x * x - y * y).max(0.0).sqrt();
+        [x, y, z]
+    }
+
+    /// Number of non-empty texels.
+    pub fn covered(&self) -> usize {
+        self.depth.iter().filter(|&&d| d != EMPTY_DEPTH).count()
+    }
+}
+
+/// The relief maps of one object, in the order of the planned directions.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReliefSet {
+    pub maps: Vec<ReliefMap>,
+}
+
+impl ReliefSet {
+    /// The canonical byte layout (the bake stage's artifact).
+    pub fn encode(&self) -> Vec<u8> {
+        codec::encode(self)
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<ReliefSet, DecodeError> {
+        codec::decode(bytes)
+    }
+}
+
+/// Why baking failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    #[error("{0}")]
+    Params(String),
+    #[error("cannot frame view {index} (direction {direction:?}): {reason}")]
+    Frame {
+        index: usize,
+        direction: [f64; 3],
+        reason: String,
+    },
+}
+
+/// Bake one relief map per direction.
+pub fn bake(
+    mesh: &Mesh,
+    directions: &[[f64; 3]],
+    params: &BakeParams,
+) -> Result<ReliefSet, BakeError> {
+    params.validate()?;
+    if directions
+        .iter()
+        .any(|d| !d.iter().all(|c| c.is_finite()) || d.iter().all(|&c| c == 0.0))
+    {
+        return Err(BakeError::Params(
+            "a direction is zero or not finite".into(),
+        ));
+    }
+    let shader = sample::Shader::new(mesh);
+    let masked: Vec<bool> = mesh
+        .triangle_materials
+        .iter()
+        .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
+        .collect();
+    let maps = directions
+        .par_iter()
+        .enumerate()
+        .map(|(index, &direction)| {
+            bake_one(mesh, &shader, &masked, direction, params).map_err(|reason| BakeError::Frame {
+                index,
+                direction,
+                reason,
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(ReliefSet { maps })
+}
+
+fn bake_one(
+    mesh: &Mesh,
+    shader: &sample::Shader<'_>,
+    masked: &[bool],
+    direction: [f64; 3],
+    params: &BakeParams,
+) -> Result<ReliefMap, String> {
+    let frame = Frame::from_direction(direction);
+    let view = OrthoView::fit(frame, &mesh.positions, params.resolution, params.margin)
+        .map_err(|e| e.0)?;
+    let keep = |tri: u32, bary: [f32; 3]| shader.alpha_keeps(tri, bary);
+    let alpha = AlphaTest {
+        masked,
+        keep: &keep,
+    };
+    let alpha = masked.iter().any(|&m| m).then_some(&alpha);
+
+    let n = params.resolution as usize;
+    let s = params.supersample as usize;
+    let fine_view = view.with_size(params.resolution * params.supersample);
+    // Depth and coverage at texel centres, colour and normal from the sub-samples: one pass.
+    let mut rasters = if s == 1 {
+        vec![rasterize(&view, &mesh.positions, &mesh.triangles, alpha)]
+    } else {
+        rasterize_scales(
+            &view,
+            &mesh.positions,
+            &mesh.triangles,
+            alpha,
+            &[1, params.supersample],
+        )
+    };
+    let fine = rasters.pop().expect("at least one raster");
+    let centre = rasters.pop().unwrap_or_else(|| fine.clone());
+    // Texture level per triangle: texels of level 0 per sample.
+    let sample_area = {
+        let w = 2.0 * view.half_size / fine_view.size as f64;
+        w * w
+    };
+    let level_of = |tri: u32| -> usize {
+        let Some(texel_area) = shader.texel_area(tri) else {
+            return 0;
+        };
+        let t = mesh.triangles[tri as usize].map(|i| mesh.positions[i as usize].map(f64::from));
+        let a = frame.to_local(t[0]);
+        let b = frame.to_local(t[1]);
+        let c = frame.to_local(t[2]);
+        let projected = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs();
+        if projected <= 0.0 {
+            return 0;
+        }
+        let ratio = texel_area / (projected / sample_area);
+        let material =
+            mesh.materials[mesh.triangle_materials[tri as usize] as usize].base_color_texture;
+        material.map_or(0, |t| shader.mips[t as usize].level_for(ratio))
+    };
+
+    let encoder = sample::SrgbEncoder::new();
+    let mut depth = vec![EMPTY_DEPTH; n * n];
+    let mut color = vec![[0.0f32; 3]; n * n];
+    let mut normal = vec![[0.0f32; 3]; n * n];
+    let mut weight = vec![0.0f32; n * n];
+    let fine_n = n * s;
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * n + x;
+            let mut c = [0.0f32; 3];
+            let mut nm = [0.0f64; 3];
+            let mut hits = 0u32;
+            for sy in 0..s {
+                for sx in 0..s {
+                    let f = (y * s + sy) * fine_n + x * s + sx;
+                    let tri = fine.tri[f];
+                    if tri == EMPTY {
+                        continue;
+                    }
+                    let col = shader.base_color(tri, fine.bary[f], level_of(tri));
+                    let nn = shader.normal(tri, fine.bary[f], frame.d);
+                    for k in 0..3 {
+                        c[k] += col[k];
+                        nm[k] += nn[k];
+                    }
+                    hits += 1;
+                }
+            }
+            let tri = centre.tri[i];
+            if tri != EMPTY {
+                let d = view.depth_of_height(centre.height[i]);
+                depth[i] = (d.clamp(0.0, 1.0) * f64::from(MAX_DEPTH)).round() as u8;
+                if hits == 0 {
+                    // A sliver the centre hits but no sub-sample does: shade the centre.
+                    let col = shader.base_color(tri, centre.bary[i], level_of(tri));
+                    let nn = shader.normal(tri, centre.bary[i], frame.d);
+                    c = [col[0], col[1], col[2]];
+                    nm = nn;
+                    hits = 1;
+                }
+            }
+            if hits > 0 {
+                let inv = 1.0 / hits as f32;
+                color[i] = c.map(|v| v * inv);
+                let local = frame.to_local(nm);
+                normal[i] = local.map(|v| v as f32);
+                weight[i] = 1.0;
+            }
+        }
+    }
+    fill::pull_push(n, &mut color, &weight, [0.5, 0.5, 0.5]);
+    fill::pull_push(n, &mut normal, &weight, [0.0, 0.0, 1.0]);
+
+    let albedo = color.iter().map(|c| c.map(|v| encoder.encode(v))).collect();
+    let normal = normal
+        .iter()
+        .map(|v| {
+            let (x, y, z) = (f64::from(v[0]), f64::from(v[1]), f64::from(v[2]).max(0.0));
+            let len = (x * x + y * y + z * z).sqrt();
+            let (x, y) = if len > 1e-12 && len.is_finite() {
+                (x / len, y / len)
+            } else {
+                (0.0, 0.0)
+            };
+            [x, y].map(|c| ((c.clamp(-1.0, 1.0) + 1.0) * 0.5 * 255.0).round() as u8)
+        })
+        .collect();
+    Ok(ReliefMap {
+        view,
+        depth,
+        normal,
+        albedo,
+    })
+}
+
+pub use png::write_pngs;

@@ -1,0 +1,72 @@
+//! The view-planning and baking stages: thin adapters from the graph to `ori_views` and
+//! `ori_bake`. (Ingest, which reads files, lives in `ingest.rs`.)
+
+use ori_bake::{BakeParams, ReliefSet};
+use ori_graph::{JobContext, Stage, StageError};
+use ori_mesh::Mesh;
+use ori_views::{ViewParams, ViewPlan};
+
+/// Output names.
+pub const VIEWS: &str = "views";
+pub const MAPS: &str = "maps";
+
+fn params<T: serde::de::DeserializeOwned>(ctx: &JobContext<'_>) -> Result<T, StageError> {
+    serde_json::from_value(ctx.params().clone())
+        .map_err(|e| StageError::new(format!("bad parameters: {e}")))
+}
+
+fn mesh(ctx: &mut JobContext<'_>) -> Result<Mesh, StageError> {
+    let bytes = ctx.input(crate::ingest::MESH)?;
+    Mesh::decode(&bytes).map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))
+}
+
+/// Plans the impostor directions (`[views]` parameters) from the canonical mesh.
+pub struct ViewsStage;
+
+impl Stage for ViewsStage {
+    fn name(&self) -> &'static str {
+        "views"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let params: ViewParams = params(ctx)?;
+        let mesh = mesh(ctx)?;
+        let plan = ori_views::plan_views(&mesh, &params)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        ctx.output(VIEWS, plan.encode());
+        Ok(())
+    }
+}
+
+/// Bakes one relief map per planned direction (`[bake]` parameters).
+pub struct BakeStage;
+
+impl Stage for BakeStage {
+    fn name(&self) -> &'static str {
+        "bake"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let params: BakeParams = params(ctx)?;
+        let mesh = mesh(ctx)?;
+        let plan = ViewPlan::decode(&ctx.input(VIEWS)?)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let set = ori_bake::bake(&mesh, &plan.directions, &params)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        ctx.output(MAPS, set.encode());
+        Ok(())
+    }
+}
+
+/// Decode a bake output (for dumps and reports).
+pub fn decode_maps(bytes: &[u8]) -> Result<ReliefSet, String> {
+    ReliefSet::decode(bytes).map_err(|e| e.to_string())
+}

@@ -1,0 +1,568 @@
+//! Orthographic frames and a deterministic CPU triangle rasterizer.
+//!
+//! Every image the pipeline makes of a mesh (item buffers for view planning, relief maps,
+//! reference renders for evaluation) comes from [`rasterize`], so they all agree on framing,
+//! pixel centres, fill rule and depth ties.
+//!
+//! Conventions:
+//! - A [`Frame`] (u, v, d) is right-handed (u x v = d); `d` points from the object towards the
+//!   viewer. Image columns grow along `u`, rows grow along `-v` (row 0 is the top), pixel
+//!   (i, j) has its centre at (i + 0.5, j + 0.5).
+//! - Height `h = d . p`: larger is nearer the viewer. Relief depth is 0 at the near plane and 1
+//!   at the far plane of an [`OrthoView`].
+//! - Triangles are drawn whatever their winding (the first surface along the ray is what a
+//!   relief map and a coverage test need). Pixel centres on an edge belong to the triangle on
+//!   its top or left side, so a shared edge is drawn once. On equal heights the triangle with
+//!   the lower index wins, so the result does not depend on anything but the input.
+
+/// A right-handed orthonormal frame (u, v, d), `d` towards the viewer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub u: [f64; 3],
+    pub v: [f64; 3],
+    pub d: [f64; 3],
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `a` scaled to unit length (zero stays zero).
+pub fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let len = dot(a, a).sqrt();
+    if len > 0.0 { a.map(|x| x / len) } else { a }
+}
+
+impl Frame {
+    /// The frame of direction `d` (normalised here). `u` is horizontal: `up x d` with
+    /// `up = +Y`, or `up = -Z` when `d` is within about 8 degrees of the Y axis, so that the
+    /// frame never degenerates; `v = d x u`.
+    pub fn from_direction(d: [f64; 3]) -> Frame {
+        let d = normalize(d);
+        let up = if d[1].abs() < 0.99 {
+            [0.0, 1.0, 0.0]
+        } else {
+            [0.0, 0.0, -1.0]
+        };
+        let u = normalize(cross(up, d));
+        let v = cross(d, u);
+        Frame { u, v, d }
+    }
+
+    /// Coordinates of `p` in the frame: (u . p, v . p, d . p).
+    pub fn to_local(&self, p: [f64; 3]) -> [f64; 3] {
+        [dot(self.u, p), dot(self.v, p), dot(self.d, p)]
+    }
+
+    /// World vector from frame coordinates.
+    pub fn to_world(&self, l: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|k| self.u[k] * l[0] + self.v[k] * l[1] + self.d[k] * l[2])
+    }
+}
+
+/// An orthographic camera: a frame, the square window it sees on the (u, v) plane, the height
+/// range that maps to relief depth [0, 1], and the image size in pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrthoView {
+    pub frame: Frame,
+    /// (u, v) of the window centre.
+    pub center: [f64; 2],
+    /// Half the window edge, in world units.
+    pub half_size: f64,
+    /// Height (`d . p`) of depth 0: the plane nearest the viewer.
+    pub near: f64,
+    /// Height of depth 1: the far side of the object.
+    pub far: f64,
+    /// Pixels per edge.
+    pub size: u32,
+}
+
+/// Why a view could not be fitted.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct FitError(pub String);
+
+impl std::fmt::Display for FitError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for FitError {}
+
+impl OrthoView {
+    /// The square view of `positions` along `frame`: the window is the bounding square of the
+    /// projection, enlarged so that `margin_px` empty pixels surround it on a `size` image.
+    pub fn fit(
+        frame: Frame,
+        positions: &[[f32; 3]],
+        size: u32,
+        margin_px: u32,
+    ) -> Result<OrthoView, FitError> {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in positions {
+            let l = frame.to_local(p.map(f64::from));
+            for k in 0..3 {
+                lo[k] = lo[k].min(l[k]);
+                hi[k] = hi[k].max(l[k]);
+            }
+        }
+        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]);
+        if !(extent.is_finite() && (hi[2] - lo[2]).is_finite()) || positions.is_empty() {
+            return Err(FitError(
+                "coordinates too large to frame (the projected size overflows)".into(),
+            ));
+        }
+        if extent <= 0.0 {
+            return Err(FitError("the object has no extent in this view".into()));
+        }
+        if size <= 2 * margin_px {
+            return Err(FitError(format!(
+                "a {size} pixel image has no room inside a {margin_px} pixel margin"
+            )));
+        }
+        let inner = f64::from(size - 2 * margin_px);
+        let half_size = 0.5 * extent * f64::from(size) / inner;
+        // A flat object (zero depth range) still gets a non-zero range, so depth is defined.
+        let depth_pad = if hi[2] > lo[2] { 0.0 } else { extent * 1e-3 };
+        Ok(OrthoView {
+            frame,
+            center: [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])],
+            half_size,
+            near: hi[2] + depth_pad,
+            far: lo[2] - depth_pad,
+            size,
+        })
+    }
+
+    /// The same window and depth range at another resolution.
+    pub fn with_size(&self, size: u32) -> OrthoView {
+        OrthoView { size, ..*self }
+    }
+
+    /// Pixel coordinates (x right, y down, in pixels) and height of a world point.
+    pub fn project(&self, p: [f64; 3]) -> [f64; 3] {
+        let l = self.frame.to_local(p);
+        let scale = f64::from(self.size) / (2.0 * self.half_size);
+        [
+            (l[0] - self.center[0] + self.half_size) * scale,
+            (self.center[1] + self.half_size - l[1]) * scale,
+            l[2],
+        ]
+    }
+
+    /// Relief depth in [0, 1] of a height.
+    pub fn depth_of_height(&self, h: f64) -> f64 {
+        (self.near - h) / (self.near - self.far)
+    }
+
+    /// World position of the point at pixel coordinates (x, y) and relief depth `depth`.
+    pub fn unproject(&self, x: f64, y: f64, depth: f64) -> [f64; 3] {
+        let scale = 2.0 * self.half_size / f64::from(self.size);
+        let u = x * scale - self.half_size + self.center[0];
+        let v = self.center[1] + self.half_size - y * scale;
+        let h = self.near - depth * (self.near - self.far);
+        self.frame.to_world([u, v, h])
+    }
+}
+
+/// Marks an empty pixel in [`Raster::tri`].
+pub const EMPTY: u32 = u32::MAX;
+
+/// What the rasterizer saw at every pixel centre.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Raster {
+    pub size: u32,
+    /// Height of the nearest surface, `f64::NEG_INFINITY` where empty.
+    pub height: Vec<f64>,
+    /// Index of the nearest triangle, or [`EMPTY`].
+    pub tri: Vec<u32>,
+    /// Barycentric weights of the triangle's three corners (in index order) at the pixel.
+    pub bary: Vec<[f32; 3]>,
+}
+
+impl Raster {
+    /// Number of covered pixels.
+    pub fn covered(&self) -> usize {
+        self.tri.iter().filter(|&&t| t != EMPTY).count()
+    }
+}
+
+/// Alpha test for cut-out materials: called for every pixel a flagged triangle would cover,
+/// with the triangle index and barycentrics; `false` makes the pixel a hole in that triangle.
+pub struct AlphaTest<'a> {
+    /// Which triangles need the test.
+    pub masked: &'a [bool],
+    pub keep: &'a (dyn Fn(u32, [f32; 3]) -> bool + Sync),
+}
+
+/// Draw `triangles` seen through `view`.
+pub fn rasterize(
+    view: &OrthoView,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    alpha: Option<&AlphaTest<'_>>,
+) -> Raster {
+    let mut out = rasterize_scales(view, positions, triangles, alpha, &[1]);
+    out.pop().expect("one scale, one raster")
+}
+
+/// Draw `triangles` through `view` at several resolutions of the same window, in one pass over
+/// the triangles: raster `k` has `view.size * scales[k]` pixels per edge. Scales must be
+/// powers of two, so that scaled screen coordinates are exact and each raster is
+/// bit-identical to `rasterize(&view.with_size(view.size * scale), ..)`.
+///
+/// # Panics
+/// If a scale is not a power of two (a programming error).
+pub fn rasterize_scales(
+    view: &OrthoView,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    alpha: Option<&AlphaTest<'_>>,
+    scales: &[u32],
+) -> Vec<Raster> {
+    assert!(
+        scales.iter().all(|s| s.is_power_of_two()),
+        "scales must be powers of two"
+    );
+    let mut outs: Vec<Raster> = scales
+        .iter()
+        .map(|&s| {
+            let n = (view.size * s) as usize;
+            Raster {
+                size: view.size * s,
+                height: vec![f64::NEG_INFINITY; n * n],
+                tri: vec![EMPTY; n * n],
+                bary: vec![[0.0; 3]; n * n],
+            }
+        })
+        .collect();
+    let finest = scales.iter().copied().max().unwrap_or(1);
+    let fine_view = view.with_size(view.size * finest);
+    let projected: Vec<[f64; 3]> = positions
+        .iter()
+        .map(|p| fine_view.project(p.map(f64::from)))
+        .collect();
+    // Compact f32 screen positions for a first, conservative test: most triangles of a dense
+    // scan cover no pixel centre, and rejecting them from a small array is cheap. The exact
+    // test (`draw`) is in f64.
+    let screen: Vec<[f32; 2]> = projected
+        .iter()
+        .map(|p| [p[0] as f32, p[1] as f32])
+        .collect();
+    for (t, tri) in triangles.iter().enumerate() {
+        let [sa, sb, sc] = tri.map(|i| screen[i as usize]);
+        let lo = [0, 1].map(|k| fmin(fmin(sa[k], sb[k]), sc[k]));
+        let hi = [0, 1].map(|k| fmax(fmax(sa[k], sb[k]), sc[k]));
+        let mut corners = None;
+        for (out, &scale) in outs.iter_mut().zip(scales) {
+            // Pixel centres of this raster sit at (i + 0.5) * down in the finest coordinates.
+            let down = (finest / scale) as f32;
+            let n = out.size as usize;
+            let covers =
+                |k: usize| any_centre(lo[k] / down - 0.5 - SLACK, hi[k] / down - 0.5 + SLACK, n);
+            if !(covers(0) && covers(1)) {
+                continue;
+            }
+            let exact = *corners.get_or_insert_with(|| tri.map(|i| projected[i as usize]));
+            // Dividing by a power of two is exact.
+            let down = f64::from(finest / scale);
+            let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] / down, p[1] / down, p[2]]);
+            let masked = alpha.is_some_and(|al| al.masked.get(t).copied().unwrap_or(false));
+            draw(out, t, a, b, c, masked.then_some(alpha).flatten());
+        }
+    }
+    outs
+}
+
+/// `a.min(b)` without NaN handling (a NaN only makes the pre-test pass, and the exact test
+/// rejects it).
+fn fmin(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+fn fmax(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The exact test and depth-tested write of one triangle (screen coordinates and heights).
+fn draw(
+    out: &mut Raster,
+    t: usize,
+    a: [f64; 3],
+    b: [f64; 3],
+    c: [f64; 3],
+    alpha: Option<&AlphaTest<'_>>,
+) {
+    let n = out.size as usize;
+    let max = n as f64;
+    // Bounding box of pixel centres (i + 0.5) inside the triangle's extent.
+    let min_x = a[0].min(b[0]).min(c[0]);
+    let max_x = a[0].max(b[0]).max(c[0]);
+    let min_y = a[1].min(b[1]).min(c[1]);
+    let max_y = a[1].max(b[1]).max(c[1]);
+    if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
+        return; // off-image, or non-finite
+    }
+    // First and last pixel whose centre is inside the box (the values are >= 0 here, so
+    // truncation is floor; `floor`/`ceil` are library calls on baseline x86-64).
+    let x0 = ceil_nonneg(min_x - 0.5);
+    let x1 = ((max_x - 0.5) as usize).min(n - 1);
+    let y0 = ceil_nonneg(min_y - 0.5);
+    let y1 = ((max_y - 0.5) as usize).min(n - 1);
+    if x0 > x1 || y0 > y1 {
+        return; // covers no pixel centre
+    }
+    let area = edge(a, b, c);
+    if area == 0.0 || !area.is_finite() {
+        return; // degenerate in this view
+    }
+    // Orient counter-clockwise on screen; remember how to map weights back.
+    let (p1, p2, swapped) = if area > 0.0 {
+        (b, c, false)
+    } else {
+        (c, b, true)
+    };
+    let area = area.abs();
+    let bias = |from: [f64; 3], to: [f64; 3]| -> f64 {
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        // Top (horizontal, going right) and left (going up) edges own their pixels.
+        if (dy == 0.0 && dx > 0.0) || dy < 0.0 {
+            0.0
+        } else {
+            -1.0
+        }
+    };
+    let (bias0, bias1, bias2) = (bias(p1, p2), bias(p2, a), bias(a, p1));
+    // Edge functions, with the row term hoisted: the same operations in the same order as
+    // `edge(from, to, p)`, so the values are bit-identical to a direct evaluation.
+    let edges = [(p1, p2, bias0), (p2, a, bias1), (a, p1, bias2)];
+    for y in y0..=y1 {
+        let py = y as f64 + 0.5;
+        let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
+        for x in x0..=x1 {
+            let px = x as f64 + 0.5;
+            let w = std::array::from_fn::<f64, 3, _>(|k| {
+                let (f, to, _) = edges[k];
+                rows[k] - (to[1] - f[1]) * (px - f[0])
+            });
+            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2 == 0.0);
+            if !(inside(0) && inside(1) && inside(2)) {
+                continue;
+            }
+            let [w0, w1, w2] = w;
+            let (l0, l1, l2) = (w0 / area, w1 / area, w2 / area);
+            let h = l0 * a[2] + l1 * p1[2] + l2 * p2[2];
+            let i = y * n + x;
+            if h <= out.height[i] {
+                continue;
+            }
+            let bary = if swapped {
+                [l0 as f32, l2 as f32, l1 as f32]
+            } else {
+                [l0 as f32, l1 as f32, l2 as f32]
+            };
+            if let Some(al) = alpha
+                && !(al.keep)(t as u32, bary)
+            {
+                continue;
+            }
+            out.height[i] = h;
+            out.tri[i] = t as u32;
+            out.bary[i] = bary;
+        }
+    }
+}
+
+/// Screen-space slack of the f32 pre-test, far above f32 rounding at any image size we use.
+const SLACK: f32 = 1e-2;
+
+/// Whether some pixel-centre index `i` in `0..n` has `lo <= i <= hi` (false for NaN).
+fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
+    if !(hi >= 0.0 && lo <= (n - 1) as f32) {
+        return false;
+    }
+    if lo <= 0.0 {
+        return true;
+    }
+    let t = lo as i32;
+    let first = if (t as f32) < lo { t + 1 } else { t };
+    first as f32 <= hi
+}
+
+/// `ceil(v)` for the pixel range, 0 for negative `v`.
+fn ceil_nonneg(v: f64) -> usize {
+    if v <= 0.0 {
+        return 0;
+    }
+    let t = v as usize;
+    if (t as f64) < v { t + 1 } else { t }
+}
+
+/// Twice the signed area of (a, b, p) on screen (y down): positive when p is to the left of
+/// a -> b as seen on the image.
+fn edge(a: [f64; 3], b: [f64; 3], p: [f64; 3]) -> f64 {
+    (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad() -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        // A unit square in the XY plane at z = 0, as two triangles sharing a diagonal.
+        (
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+    }
+
+    #[test]
+    fn frames_are_right_handed_and_orthonormal() {
+        for d in [
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.3, -0.2, 0.9],
+        ] {
+            let f = Frame::from_direction(d);
+            let c = cross(f.u, f.v);
+            assert!(c.iter().zip(f.d).all(|(a, b)| (a - b).abs() < 1e-12));
+            assert!(dot(f.u, f.v).abs() < 1e-12 && (dot(f.u, f.u) - 1.0).abs() < 1e-12);
+        }
+        let f = Frame::from_direction([0.0, 0.0, 1.0]);
+        assert_eq!((f.u, f.v), ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]));
+    }
+
+    #[test]
+    fn square_covers_every_pixel_once_with_no_cracks() {
+        let (p, t) = quad();
+        let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, 1.0]), &p, 16, 0).unwrap();
+        let r = rasterize(&view, &p, &t, None);
+        assert_eq!(r.covered(), 256);
+        // Both triangles drew something; the diagonal is split between them.
+        assert!(r.tri.contains(&0) && r.tri.contains(&1));
+        // Barycentrics reproduce the pixel position.
+        let i = 3 * 16 + 12; // row 3 (near the top, v high), column 12
+        let tri = t[r.tri[i] as usize];
+        let b = r.bary[i];
+        let x: f32 = (0..3).map(|k| b[k] * p[tri[k] as usize][0]).sum();
+        let y: f32 = (0..3).map(|k| b[k] * p[tri[k] as usize][1]).sum();
+        assert!((x - 12.5 / 16.0).abs() < 1e-6 && (y - (1.0 - 3.5 / 16.0)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn nearest_surface_wins_and_ties_go_to_the_lower_index() {
+        let (mut p, mut t) = quad();
+        p.extend([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5], [1.0, 1.0, 0.5]]);
+        t.push([4, 5, 6]);
+        t.push([0, 1, 2]); // duplicate of triangle 0
+        let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, 1.0]), &p, 8, 0).unwrap();
+        let r = rasterize(&view, &p, &t, None);
+        assert!(
+            r.tri.iter().all(|&x| x != 3),
+            "the duplicate never wins a tie"
+        );
+        assert!(r.tri.contains(&2));
+        assert!((view.depth_of_height(0.5)).abs() < 1e-12);
+        // From below the far triangle is hidden.
+        let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, -1.0]), &p, 8, 0).unwrap();
+        assert!(!rasterize(&view, &p, &t, None).tri.contains(&2));
+    }
+
+    #[test]
+    fn several_scales_in_one_pass_equal_separate_passes() {
+        // A fan of thin, overlapping, oddly placed triangles.
+        let mut p = Vec::new();
+        let mut t = Vec::new();
+        let mut x = 0.123f32;
+        for i in 0..200u32 {
+            x = (x * 3.7 + 0.31).fract();
+            let y = (x * 7.1).fract();
+            let z = (x * 13.3).fract();
+            p.push([x, y, z]);
+            if i >= 2 {
+                t.push([i - 2, i - 1, i]);
+            }
+        }
+        // A sliver through the centres of coarse row 3 that passes between fine centres.
+        let base = p.len() as u32;
+        let v = 1.0 - 3.5 / 8.0;
+        p.extend([
+            [0.0, v - 1e-5, 2.0],
+            [1.0, v - 1e-5, 2.0],
+            [0.5, v + 1e-5, 2.0],
+        ]);
+        t.push([base, base + 1, base + 2]);
+        let view = OrthoView {
+            frame: Frame::from_direction([0.0, 0.0, 1.0]),
+            center: [0.5, 0.5],
+            half_size: 0.5,
+            near: 3.0,
+            far: -1.0,
+            size: 8,
+        };
+        let both = rasterize_scales(&view, &p, &t, None, &[1, 4]);
+        assert!(
+            both[0].tri.contains(&(t.len() as u32 - 1)),
+            "the sliver is drawn"
+        );
+        assert!(
+            !both[1].tri.contains(&(t.len() as u32 - 1)),
+            "and misses every fine centre"
+        );
+        assert_eq!(both[0], rasterize(&view, &p, &t, None));
+        assert_eq!(both[1], rasterize(&view.with_size(8 * 4), &p, &t, None));
+    }
+
+    #[test]
+    fn alpha_test_cuts_holes() {
+        let (p, t) = quad();
+        let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, 1.0]), &p, 8, 0).unwrap();
+        let keep = |tri: u32, _b: [f32; 3]| tri == 1;
+        let masked = [true, true];
+        let r = rasterize(
+            &view,
+            &p,
+            &t,
+            Some(&AlphaTest {
+                masked: &masked,
+                keep: &keep,
+            }),
+        );
+        assert!(r.covered() > 0 && !r.tri.contains(&0));
+    }
+
+    #[test]
+    fn unproject_inverts_project() {
+        let (p, _) = quad();
+        let view = OrthoView::fit(Frame::from_direction([0.2, 0.5, 0.8]), &p, 64, 2).unwrap();
+        let w = [0.3, 0.7, 0.0];
+        let s = view.project(w);
+        let back = view.unproject(s[0], s[1], view.depth_of_height(s[2]));
+        for k in 0..3 {
+            assert!((back[k] - w[k]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn bad_extents_are_errors() {
+        let f = Frame::from_direction([0.0, 0.0, 1.0]);
+        assert!(OrthoView::fit(f, &[[1.0, 1.0, 1.0]; 3], 8, 0).is_err());
+        assert!(OrthoView::fit(f, &[[f32::MAX, 0.0, 0.0], [-f32::MAX, 0.0, 0.0]], 8, 0).is_ok());
+        assert!(OrthoView::fit(f, &[], 8, 0).is_err());
+    }
+}

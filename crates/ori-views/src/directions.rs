@@ -1,0 +1,202 @@
+//! Direction sets generated in code: icosahedron face centroids and their geodesic
+//! subdivisions, and the six axes of the relief-texture box.
+//!
+//! Only `+ - * /` and `sqrt` are used, so every set is bit-identical on every machine.
+
+/// The 12 icosahedron vertices `(0, ±1, ±phi)`, `(±1, ±phi, 0)`, `(±phi, 0, ±1)`, in this
+/// order (signs `+` before `-`, first the first coordinate's sign, then the second's), not yet
+/// normalised.
+fn icosahedron_vertices() -> [[f64; 3]; 12] {
+    let phi = 0.5 * (1.0 + 5f64.sqrt());
+    let mut out = [[0.0; 3]; 12];
+    let mut i = 0;
+    for shape in 0..3 {
+        for s1 in [1.0, -1.0] {
+            for s2 in [1.0, -1.0] {
+                out[i] = match shape {
+                    0 => [0.0, s1, s2 * phi],
+                    1 => [s1, s2 * phi, 0.0],
+                    _ => [s1 * phi, 0.0, s2],
+                };
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+/// The 20 faces of the unit icosahedron as vertex triples, outward (counter-clockwise seen
+/// from outside), in lexicographic order of their sorted vertex indices.
+fn icosahedron_faces() -> Vec<[[f64; 3]; 3]> {
+    let raw = icosahedron_vertices();
+    let unit = raw.map(normalize);
+    let mut faces = Vec::with_capacity(20);
+    // Edges have squared length 4; the next-nearest vertices are at (2 phi)^2 ~ 10.5.
+    let adjacent = |i: usize, j: usize| dist2(raw[i], raw[j]) < 5.0;
+    for i in 0..12 {
+        for j in i + 1..12 {
+            for k in j + 1..12 {
+                if adjacent(i, j) && adjacent(j, k) && adjacent(i, k) {
+                    let (a, b, c) = (unit[i], unit[j], unit[k]);
+                    let outward = dot(cross(sub(b, a), sub(c, a)), add(add(a, b), c)) > 0.0;
+                    faces.push(if outward { [a, b, c] } else { [a, c, b] });
+                }
+            }
+        }
+    }
+    debug_assert_eq!(faces.len(), 20);
+    faces
+}
+
+/// Spherical triangles of the icosahedron subdivided `subdivisions` times. Each step splits a
+/// triangle `(a, b, c)` into `(a, ab, ca)`, `(ab, b, bc)`, `(ca, bc, c)`, `(ab, bc, ca)` with
+/// edge midpoints pushed out to the unit sphere, so triangle `j` of one level lies inside
+/// triangle `j / 4` of the level before.
+pub(crate) fn geodesic_triangles(subdivisions: u32) -> Vec<[[f64; 3]; 3]> {
+    let mut faces = icosahedron_faces();
+    for _ in 0..subdivisions {
+        faces = faces
+            .iter()
+            .flat_map(|&[a, b, c]| {
+                let (ab, bc, ca) = (midpoint(a, b), midpoint(b, c), midpoint(c, a));
+                [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]
+            })
+            .collect();
+    }
+    faces
+}
+
+/// Unit directions towards the face centroids of the icosahedron subdivided `subdivisions`
+/// times: 20 x 4^subdivisions of them (0: 20, 1: 80, 2: 320, 3: 1280, 4: 5120).
+///
+/// Subdivision is geodesic: every triangle is split in four at its edge midpoints, which are
+/// pushed out to the unit sphere. Order: the 20 icosahedron faces in a fixed order, then each
+/// face's four children in turn, so direction `j` of one level lies inside the spherical
+/// triangle of direction `j / 4` of the level before. Deterministic and bit-identical on
+/// every machine. The set is centrally symmetric (for each direction its opposite is in it).
+///
+/// # Panics
+/// When `subdivisions > 8` (1.3 million directions), which is surely a mistake.
+pub fn icosahedron_directions(subdivisions: u32) -> Vec<[f64; 3]> {
+    assert!(
+        subdivisions <= 8,
+        "icosahedron_directions: {subdivisions} subdivisions is too many (at most 8)"
+    );
+    geodesic_triangles(subdivisions)
+        .iter()
+        .map(|&[a, b, c]| normalize(add(add(a, b), c)))
+        .collect()
+}
+
+/// The six axis directions `+X, -X, +Y, -Y, +Z, -Z`: the faces of the relief-texture box
+/// (Oliveira et al., as used in `papers/mixed-polygons-relief-textures.txt`).
+pub fn axis_directions() -> [[f64; 3]; 6] {
+    [
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ]
+}
+
+/// The 320 evaluation and selection directions of `GUIDE.md`: the icosahedron subdivided
+/// twice, `icosahedron_directions(2)`.
+pub fn evaluation_directions() -> Vec<[f64; 3]> {
+    icosahedron_directions(2)
+}
+
+/// Sizes of the regularly spaced sets: the axis box, then the icosahedron levels 0 to 4.
+pub(crate) const REGULAR_COUNTS: [usize; 6] = [6, 20, 80, 320, 1280, 5120];
+
+/// The regularly spaced set of `count` directions, if there is one.
+pub(crate) fn regular_directions(count: usize) -> Option<Vec<[f64; 3]>> {
+    match count {
+        6 => Some(axis_directions().to_vec()),
+        _ => (0..5)
+            .find(|&level| 20 << (2 * level) == count)
+            .map(icosahedron_directions),
+    }
+}
+
+pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dist2(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let d = sub(a, b);
+    dot(d, d)
+}
+
+pub(crate) fn normalize(a: [f64; 3]) -> [f64; 3] {
+    let len = dot(a, a).sqrt();
+    a.map(|x| x / len)
+}
+
+/// Midpoint of the arc between unit vectors `a` and `b` (symmetric in `a`, `b`, bit for bit,
+/// so neighbouring triangles share their new vertices exactly).
+fn midpoint(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    normalize(add(a, b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Whether unit vector `p` lies inside the spherical triangle `(a, b, c)` (outward).
+    fn inside(p: [f64; 3], [a, b, c]: [[f64; 3]; 3]) -> bool {
+        let eps = -1e-12;
+        dot(cross(a, b), p) > eps && dot(cross(b, c), p) > eps && dot(cross(c, a), p) > eps
+    }
+
+    #[test]
+    fn children_lie_inside_their_parent() {
+        for level in 0..3 {
+            let parents = geodesic_triangles(level);
+            let children = icosahedron_directions(level + 1);
+            for (j, &child) in children.iter().enumerate() {
+                assert!(
+                    inside(child, parents[j / 4]),
+                    "level {level}, direction {j}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn faces_are_outward_and_equilateral() {
+        let faces = icosahedron_faces();
+        for [a, b, c] in faces {
+            assert!(dot(cross(sub(b, a), sub(c, a)), a) > 0.0);
+            let e = dist2(a, b);
+            assert!((dist2(b, c) - e).abs() < 1e-12 && (dist2(c, a) - e).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn regular_sets_exist_for_the_listed_counts_only() {
+        for n in REGULAR_COUNTS {
+            assert_eq!(regular_directions(n).map(|d| d.len()), Some(n));
+        }
+        for n in [0, 1, 5, 7, 19, 21, 40, 20480] {
+            assert!(regular_directions(n).is_none(), "{n}");
+        }
+    }
+}
