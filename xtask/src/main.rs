@@ -3,6 +3,7 @@
 
 mod bench;
 mod compress;
+mod eval_table;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -32,6 +33,8 @@ enum Command {
     },
     /// Compress a PNG into a KTX2 texture (BC1 albedo, BC4, BC5 normals).
     CompressTexture(compress::Args),
+    /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
+    EvalTable(eval_table::Args),
 }
 
 #[derive(clap::Args)]
@@ -71,6 +74,7 @@ fn main() -> ExitCode {
         Command::BuildAssets(args) => build(args),
         Command::Bench { which } => bench::run(which),
         Command::CompressTexture(args) => compress::run(args),
+        Command::EvalTable(args) => eval_table::run(args),
     }
 }
 

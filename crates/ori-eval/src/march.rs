@@ -1,0 +1,621 @@
+//! The runtime rendering rule for one impostor seen from one evaluation view: the view ray of
+//! a pixel, carried into the impostor's texture space, searched against the heightfield.
+//! The runtime shader implements the same steps; they are written so that it can.
+//!
+//! Texture space (all of it `f32`, as in a shader): `x` and `y` in texels (the map's pixel
+//! coordinates: texel `(i, j)` spans `[i, i + 1) x [j, j + 1)`, row 0 at the top), `z` in
+//! depth codes (0 at the near plane, 254 at the far side of the object). For an evaluation
+//! view with direction `w` (towards the viewer) and an impostor with frame `(u, v, d)`, a
+//! square window of `N` texels and depth range `[far, near]`:
+//!
+//! 1. **Ray.** Pixel centre `(x + 0.5, y + 0.5)`, seen along `-w`, is the line
+//!    `(x, y) = o + z * dir`, `o` where it crosses the near plane and
+//!    `dir = (-(u . w), v . w) * texels_per_unit / ((d . w) * codes_per_unit)` the texel
+//!    displacement per depth code. Only impostors facing the viewer (`d . w > 0`) are drawn,
+//!    so `z` grows along the ray.
+//! 2. **Extent.** The searched segment `[z_in, z_out]` is the part of `0 <= z <= 254` where the
+//!    ray is inside the window `0 <= x, y <= N`: the quad is extended for skewed views (every
+//!    pixel whose ray meets the relief volume gets a fragment shader run), and the search is
+//!    confined to the relief volume. No such part: no fragment.
+//! 3. **Lookup.** Nearest texel: the sample at `(x, y)` reads the depth code of texel
+//!    `(floor x, floor y)`, 255 (empty) outside `[0, N)`. Empty is deeper than any ray depth,
+//!    so a ray always passes over an empty texel.
+//! 4. **Linear search.** `L` samples (`L = 16`) at `z_k = z_in + k * (z_out - z_in) / L`,
+//!    `k = 1..=L`; the first with `z_k >= code(z_k)` is below the surface. None: no fragment.
+//!    The bracket is `(lo, hi) = (z_{k-1}, z_k)`, with `z_0 = z_in`.
+//! 5. **Binary search.** `B` times (`B = 7`): `mid = (lo + hi) / 2`; `hi = mid` if
+//!    `mid >= code(mid)`, else `lo = mid`.
+//! 6. **Vertical wall.** `a = code(lo)` and `b = code(hi)` are the stored depths of the two
+//!    samples that bracket the hit. If `|a - b| > threshold * 254`, or exactly one of them is
+//!    empty (an empty texel has no depth: the step to it is the projection's silhouette, of
+//!    unbounded height), the ray ran into a vertical wall made by the projection and the
+//!    fragment is discarded.
+//! 7. **Fragment.** Otherwise the fragment is texel `hi` (its normal and albedo), at relief
+//!    depth `hi`.
+//!
+//! Why empty counts as unbounded rather than as code 255 (just past the far plane): with 255,
+//! silhouette texels in the deepest `threshold` of the range keep their extruded "shadow
+//! volume", which on the Stanford scans more than doubles the pixels the ORI adds outside the
+//! mesh for a few percent fewer missed pixels (see the crate documentation).
+
+use ori_bake::{EMPTY_DEPTH, MAX_DEPTH, ReliefMap};
+use ori_raster::OrthoView;
+
+use crate::lanes::{F4, M4};
+
+/// What the ray through one pixel found in one impostor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Trace {
+    /// The ray never went below the surface inside the relief volume.
+    Miss,
+    /// The search ended on a vertical wall made by the projection; the fragment is discarded.
+    Wall,
+    /// A fragment at relief depth `z` (depth codes) from texel `texel` (row-major index).
+    Hit { z: f32, texel: u32 },
+}
+
+/// Search parameters of the runtime rule.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchParams {
+    /// Linear-search steps `L` (>= 1).
+    pub linear_steps: u32,
+    /// Binary-search steps `B` (<= 32).
+    pub binary_steps: u32,
+    /// Largest depth step between the two bracketing samples that is still a surface, as a
+    /// fraction of the impostor's depth range.
+    pub wall_threshold: f32,
+}
+
+impl MarchParams {
+    /// The wall threshold in depth codes.
+    pub fn threshold_codes(&self) -> f32 {
+        self.wall_threshold * f32::from(MAX_DEPTH)
+    }
+}
+
+/// One impostor seen from one evaluation view: the affine map from evaluation pixels to rays
+/// in the impostor's texture space. Built by [`ImpostorRays::new`], it traces any pixel.
+#[derive(Clone, Debug)]
+pub struct ImpostorRays {
+    /// Texture-space point where the ray of pixel (0, 0) (its corner, not its centre) crosses
+    /// depth code 0, and its change per pixel along x and y.
+    o0: [f32; 2],
+    ex: [f32; 2],
+    ey: [f32; 2],
+    /// Texel displacement per depth code along the ray.
+    dir: [f32; 2],
+    n: usize,
+    n_f: f32,
+    /// `N - 1`: the largest texel coordinate.
+    last: f32,
+    params: MarchParams,
+    threshold_codes: f32,
+    /// Whether the binary search always ends on a bracket shorter than a texel, so that its
+    /// two samples are the same or neighbouring texels (used by [`ImpostorRays::covers`]).
+    adjacent_end: bool,
+    /// Evaluation-view depth (fraction of the view's depth range) of the ray at code 0, per
+    /// pixel (affine: `e00 + px * epx + py * epy`), and its change per code.
+    e00: f64,
+    epx: f64,
+    epy: f64,
+    de: f64,
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl ImpostorRays {
+    /// The rays of `eval`'s pixels in `map`'s texture space; `None` when the impostor does not
+    /// face the viewer (`d . w <= 0`) or the geometry is degenerate.
+    pub fn new(eval: &OrthoView, map: &ReliefMap, params: MarchParams) -> Option<ImpostorRays> {
+        let (ue, ve, w) = (eval.frame.u, eval.frame.v, eval.frame.d);
+        let m = &map.view;
+        let (u, v, d) = (m.frame.u, m.frame.v, m.frame.d);
+        let facing = dot(d, w);
+        let k = f64::from(m.size) / (2.0 * m.half_size); // texels per world unit
+        let depth_scale = f64::from(MAX_DEPTH) / (m.near - m.far); // codes per world unit
+        let zr = facing * depth_scale; // codes per world unit along the ray
+        if !(facing > 0.0 && zr > 0.0 && zr.is_finite() && k.is_finite() && m.size > 0) {
+            return None;
+        }
+        let dir = [-dot(u, w) * k / zr, dot(v, w) * k / zr];
+        // Pixel coordinates (px, py) -> point Q on the evaluation plane through the origin
+        // (w . Q = 0): Q = q00 + px * gx + py * gy.
+        let pixel = 2.0 * eval.half_size / f64::from(eval.size);
+        let q00: [f64; 3] = std::array::from_fn(|i| {
+            ue[i] * (eval.center[0] - eval.half_size) + ve[i] * (eval.center[1] + eval.half_size)
+        });
+        let gx = ue.map(|c| c * pixel);
+        let gy = ve.map(|c| -c * pixel);
+        // Texture coordinates and depth code of a point, and of a vector (the linear part).
+        let point = |q: [f64; 3]| {
+            [
+                (dot(u, q) - m.center[0] + m.half_size) * k,
+                (m.center[1] + m.half_size - dot(v, q)) * k,
+                (m.near - dot(d, q)) * depth_scale,
+            ]
+        };
+        let vector = |g: [f64; 3]| [dot(u, g) * k, -dot(v, g) * k, -dot(d, g) * depth_scale];
+        // Slide along the ray to depth code 0.
+        let crossing = |t: [f64; 3]| [t[0] - t[2] * dir[0], t[1] - t[2] * dir[1]];
+        let (t00, tx, ty) = (point(q00), vector(gx), vector(gy));
+        let eval_range = eval.near - eval.far;
+        // The final bracket spans at most N / (L 2^B) texels per axis; below 3/4 its two
+        // samples are the same or neighbouring texels whatever the rounding.
+        let final_bracket = f64::from(m.size)
+            / (f64::from(params.linear_steps) * (1u64 << params.binary_steps.min(32)) as f64);
+        let out = ImpostorRays {
+            o0: crossing(t00).map(|c| c as f32),
+            ex: crossing(tx).map(|c| c as f32),
+            ey: crossing(ty).map(|c| c as f32),
+            dir: dir.map(|c| c as f32),
+            n: m.size as usize,
+            n_f: m.size as f32,
+            last: (m.size - 1) as f32,
+            params,
+            threshold_codes: params.threshold_codes(),
+            adjacent_end: final_bracket < 0.75,
+            e00: (eval.near - t00[2] / zr) / eval_range,
+            epx: -tx[2] / zr / eval_range,
+            epy: -ty[2] / zr / eval_range,
+            de: 1.0 / (zr * eval_range),
+        };
+        let finite = out.o0.iter().chain(&out.ex).chain(&out.ey).chain(&out.dir);
+        finite.into_iter().all(|c| c.is_finite()).then_some(out)
+    }
+
+    /// Row-major index of the texel under texture-space point `(x, y)`, if inside the map.
+    #[inline]
+    fn texel(&self, x: f32, y: f32) -> Option<usize> {
+        // In range, truncation is floor; `as i32` is the cheapest conversion and the map edge
+        // (at most 8192) keeps the index far from overflow.
+        (x >= 0.0 && y >= 0.0 && x < self.n_f && y < self.n_f).then(|| {
+            (y as i32 as usize)
+                .wrapping_mul(self.n)
+                .wrapping_add(x as i32 as usize)
+        })
+    }
+
+    /// Column and row of the texel under `(x, y)`, if inside the map.
+    #[inline]
+    fn texel_xy(&self, x: f32, y: f32) -> Option<(usize, usize)> {
+        (x >= 0.0 && y >= 0.0 && x < self.n_f && y < self.n_f)
+            .then_some((x as i32 as usize, y as i32 as usize))
+    }
+
+    /// Rule 3: the depth code under `(x, y)`, 255 outside the map. Branch-free: the hot
+    /// loops call this for every sample, and which side of the window a sample falls on is
+    /// not predictable.
+    #[inline]
+    fn code(&self, depth: &[u8], x: f32, y: f32) -> u8 {
+        let inside = (x >= 0.0) & (y >= 0.0) & (x < self.n_f) & (y < self.n_f);
+        // Clamped into the map (NaN clamps to 0), so the truncations below are in range;
+        // inside the map they are the floor.
+        let (xc, yc) = (x.max(0.0).min(self.last), y.max(0.0).min(self.last));
+        // SAFETY: `xc` and `yc` are finite and in `[0, N - 1]`, which fits `u32`.
+        let (xi, yi) = unsafe { (xc.to_int_unchecked::<u32>(), yc.to_int_unchecked::<u32>()) };
+        let code = depth[(yi * self.n as u32 + xi) as usize];
+        if inside { code } else { EMPTY_DEPTH }
+    }
+
+    /// Rules 1, 2 and 4: the ray's near-plane crossing `(ox, oy)` and the linear search's
+    /// bracket `(lo, hi)`, or `None` when the ray never goes below the surface.
+    #[inline]
+    fn linear(&self, depth: &[u8], x: u32, y: u32) -> Option<Bracket> {
+        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+        let ox = self.o0[0] + px * self.ex[0] + py * self.ey[0];
+        let oy = self.o0[1] + px * self.ex[1] + py * self.ey[1];
+        let [dx, dy] = self.dir;
+        let mut span = (0.0f32, f32::from(MAX_DEPTH));
+        if !(clip(ox, dx, self.n_f, &mut span) && clip(oy, dy, self.n_f, &mut span)) {
+            return None;
+        }
+        let (z_in, z_out) = span;
+        let step = (z_out - z_in) / self.params.linear_steps as f32;
+        let mut lo = z_in;
+        for k in 1..=self.params.linear_steps {
+            let z = z_in + step * k as f32;
+            if z >= f32::from(self.code(depth, ox + z * dx, oy + z * dy)) {
+                return Some(Bracket { ox, oy, lo, hi: z });
+            }
+            lo = z;
+        }
+        None
+    }
+
+    /// Rules 5 to 7 on a linear bracket.
+    #[inline]
+    fn refine(&self, depth: &[u8], bracket: Bracket) -> Trace {
+        let Bracket {
+            ox,
+            oy,
+            mut lo,
+            mut hi,
+        } = bracket;
+        let [dx, dy] = self.dir;
+        let at = |z: f32| self.code(depth, ox + z * dx, oy + z * dy);
+        for _ in 0..self.params.binary_steps {
+            let mid = 0.5 * (lo + hi);
+            let below = mid >= f32::from(at(mid));
+            (lo, hi) = (select(below, lo, mid), select(below, mid, hi));
+        }
+        let texel = self
+            .texel(ox + hi * dx, oy + hi * dy)
+            .expect("a sample below the surface is inside the map");
+        if is_wall(at(lo), depth[texel], self.threshold_codes) {
+            Trace::Wall
+        } else {
+            Trace::Hit {
+                z: hi,
+                texel: texel as u32,
+            }
+        }
+    }
+
+    /// Trace the ray of pixel `(x, y)` through `depth` (the depth codes of the map given to
+    /// [`ImpostorRays::new`]).
+    #[inline]
+    pub fn trace(&self, depth: &[u8], x: u32, y: u32) -> Trace {
+        match self.linear(depth, x, y) {
+            Some(bracket) => self.refine(depth, bracket),
+            None => Trace::Miss,
+        }
+    }
+
+    /// Whether [`ImpostorRays::trace`] gives a [`Trace::Hit`] at pixel `(x, y)`, usually
+    /// without the binary search: the final samples lie between the linear bracket's ends
+    /// (positions are monotonic along the ray), so when those ends are in one texel, or in a
+    /// block of texels free of walls (`walls`, built for this map and threshold) while the
+    /// final bracket is shorter than a texel, the search can only end on a hit.
+    #[inline]
+    pub fn covers(&self, depth: &[u8], walls: &WallMap, x: u32, y: u32) -> bool {
+        match self.linear(depth, x, y).map(|b| self.quick(walls, b)) {
+            None => false,
+            Some(Ok(covered)) => covered,
+            Some(Err(bracket)) => matches!(self.refine(depth, bracket), Trace::Hit { .. }),
+        }
+    }
+
+    /// [`ImpostorRays::covers`] for many pixels at once: `f(i, covered)` for each
+    /// `(i, x, y)` of `pixels`, in order. Rays are searched four at a time in SSE lanes, and
+    /// the binary searches left to do as well, so that their dependent lookups overlap. Each
+    /// lane performs exactly the operations of the scalar rule.
+    pub fn covers_many(
+        &self,
+        depth: &[u8],
+        walls: &WallMap,
+        pixels: &[(usize, u32, u32)],
+        mut f: impl FnMut(usize, bool),
+    ) {
+        // Brackets the binary search must decide, refined four at a time.
+        let mut pending = [(0usize, Bracket::default()); 8];
+        let mut count = 0;
+        for chunk in pixels.chunks(4) {
+            for (&(i, _, _), lane) in chunk.iter().zip(self.linear4(depth, walls, chunk)) {
+                match lane {
+                    Lane::Miss => f(i, false),
+                    Lane::Covered => f(i, true),
+                    Lane::Refine(b) => {
+                        pending[count] = (i, b);
+                        count += 1;
+                    }
+                }
+            }
+            if count >= 4 {
+                self.refine4(depth, &pending[..4], &mut f);
+                pending.copy_within(4..count, 0);
+                count -= 4;
+            }
+        }
+        if count > 0 {
+            self.refine4(depth, &pending[..count], &mut f);
+        }
+    }
+
+    /// Rule 3 on four lanes.
+    #[inline(always)]
+    fn codes4(&self, depth: &[u8], x: F4, y: F4) -> F4 {
+        let (zero, n, last) = (F4::splat(0.0), F4::splat(self.n_f), F4::splat(self.last));
+        let inside = x.ge(zero).and(y.ge(zero)).and(x.lt(n)).and(y.lt(n));
+        let xi = x.max(zero).min(last).trunc();
+        let yi = y.max(zero).min(last).trunc();
+        let stride = self.n as u32;
+        let codes: [f32; 4] = std::array::from_fn(|l| {
+            f32::from(depth[(yi[l] as u32 * stride + xi[l] as u32) as usize])
+        });
+        F4::select(
+            inside,
+            F4::from_array(codes),
+            F4::splat(f32::from(EMPTY_DEPTH)),
+        )
+    }
+
+    /// [`ImpostorRays::covers`] for up to four pixels in lockstep, but for the binary search:
+    /// rules 1 to 4 and the shortcuts, the same operations lane by lane.
+    fn linear4(&self, depth: &[u8], walls: &WallMap, pixels: &[(usize, u32, u32)]) -> [Lane; 4] {
+        let centre = |l: usize, c: fn(&(usize, u32, u32)) -> u32| {
+            pixels.get(l).map_or(0.5, |p| c(p) as f32 + 0.5)
+        };
+        let px = F4::from_array(std::array::from_fn(|l| centre(l, |p| p.1)));
+        let py = F4::from_array(std::array::from_fn(|l| centre(l, |p| p.2)));
+        let (zero, n) = (F4::splat(0.0), F4::splat(self.n_f));
+        let splat2 = |v: [f32; 2]| (F4::splat(v[0]), F4::splat(v[1]));
+        let ((o0x, o0y), (exx, exy), (eyx, eyy)) =
+            (splat2(self.o0), splat2(self.ex), splat2(self.ey));
+        let ox = o0x.add(px.mul(exx)).add(py.mul(eyx));
+        let oy = o0y.add(px.mul(exy)).add(py.mul(eyy));
+        // Rule 2, as `clip` does it: the direction is the same for every lane.
+        let mut z_in = zero;
+        let mut z_out = F4::splat(f32::from(MAX_DEPTH));
+        let mut open = M4::from_array(std::array::from_fn(|l| l < pixels.len()));
+        for (o, d) in [(ox, self.dir[0]), (oy, self.dir[1])] {
+            if d == 0.0 {
+                open = open.and(o.ge(zero)).and(o.le(n));
+            } else {
+                let d = F4::splat(d);
+                let (a, b) = (zero.sub(o).div(d), n.sub(o).div(d));
+                z_in = z_in.max(a.min(b));
+                z_out = z_out.min(a.max(b));
+            }
+        }
+        let mut searching = open.and(z_in.lt(z_out));
+        let step = z_out
+            .sub(z_in)
+            .div(F4::splat(self.params.linear_steps as f32));
+        let (dx, dy) = splat2(self.dir);
+        let mut lo = z_in;
+        let mut hi = F4::splat(f32::NAN);
+        for k in 1..=self.params.linear_steps {
+            if !searching.any() {
+                break;
+            }
+            let z = z_in.add(step.mul(F4::splat(k as f32)));
+            let codes = self.codes4(depth, ox.add(z.mul(dx)), oy.add(z.mul(dy)));
+            let below = searching.and(z.ge(codes));
+            hi = F4::select(below, z, hi);
+            searching = searching.and_not(below);
+            lo = F4::select(searching, z, lo);
+        }
+        // The shortcuts need the texels of both ends of the bracket.
+        let ends = |z: F4| {
+            let (x, y) = (ox.add(z.mul(dx)), oy.add(z.mul(dy)));
+            let inside = x.ge(zero).and(y.ge(zero)).and(x.lt(n)).and(y.lt(n));
+            let last = F4::splat(self.last);
+            (
+                inside.to_array(),
+                x.max(zero).min(last).trunc(),
+                y.max(zero).min(last).trunc(),
+            )
+        };
+        let ((in_lo, xl, yl), (in_hi, xh, yh)) = (ends(lo), ends(hi));
+        let (ox, oy, lo, hi) = (ox.to_array(), oy.to_array(), lo.to_array(), hi.to_array());
+        std::array::from_fn(|l| {
+            if hi[l].is_nan() {
+                return Lane::Miss;
+            }
+            if in_lo[l] && in_hi[l] {
+                let (tl, th) = (
+                    (xl[l] as usize, yl[l] as usize),
+                    (xh[l] as usize, yh[l] as usize),
+                );
+                if tl == th {
+                    return Lane::Covered;
+                }
+                let ((x0, x1), (y0, y1)) = (minmax(tl.0, th.0), minmax(tl.1, th.1));
+                if self.adjacent_end && !walls.any(x0, y0, x1, y1) {
+                    return Lane::Covered;
+                }
+            }
+            Lane::Refine(Bracket {
+                ox: ox[l],
+                oy: oy[l],
+                lo: lo[l],
+                hi: hi[l],
+            })
+        })
+    }
+
+    /// [`ImpostorRays::refine`] on up to four brackets in lockstep; `f(i, is a hit)`.
+    fn refine4(&self, depth: &[u8], batch: &[(usize, Bracket)], f: &mut impl FnMut(usize, bool)) {
+        let lane = |l: usize| batch[l.min(batch.len() - 1)].1;
+        let ox = F4::from_array(std::array::from_fn(|l| lane(l).ox));
+        let oy = F4::from_array(std::array::from_fn(|l| lane(l).oy));
+        let mut lo = F4::from_array(std::array::from_fn(|l| lane(l).lo));
+        let mut hi = F4::from_array(std::array::from_fn(|l| lane(l).hi));
+        let (dx, dy) = (F4::splat(self.dir[0]), F4::splat(self.dir[1]));
+        let half = F4::splat(0.5);
+        for _ in 0..self.params.binary_steps {
+            let mid = half.mul(lo.add(hi));
+            let below = mid.ge(self.codes4(depth, ox.add(mid.mul(dx)), oy.add(mid.mul(dy))));
+            hi = F4::select(below, mid, hi);
+            lo = F4::select(below, lo, mid);
+        }
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        let [dx, dy] = self.dir;
+        for (l, &(i, b)) in batch.iter().enumerate() {
+            let texel = self
+                .texel(b.ox + hi[l] * dx, b.oy + hi[l] * dy)
+                .expect("a sample below the surface is inside the map");
+            let a = self.code(depth, b.ox + lo[l] * dx, b.oy + lo[l] * dy);
+            f(i, !is_wall(a, depth[texel], self.threshold_codes));
+        }
+    }
+
+    /// The shortcuts of [`ImpostorRays::covers`] on a linear bracket: the answer, or the
+    /// bracket when the binary search must decide.
+    #[inline]
+    fn quick(&self, walls: &WallMap, bracket: Bracket) -> Result<bool, Bracket> {
+        let Bracket { ox, oy, lo, hi } = bracket;
+        let [dx, dy] = self.dir;
+        let ends = (
+            self.texel_xy(ox + lo * dx, oy + lo * dy),
+            self.texel_xy(ox + hi * dx, oy + hi * dy),
+        );
+        if let (Some(tl), Some(th)) = ends {
+            if tl == th {
+                return Ok(true);
+            }
+            if self.adjacent_end {
+                let (x0, x1) = minmax(tl.0, th.0);
+                let (y0, y1) = minmax(tl.1, th.1);
+                if !walls.any(x0, y0, x1, y1) {
+                    return Ok(true);
+                }
+            }
+        }
+        Err(bracket)
+    }
+
+    /// Evaluation-view depth (0 at the view's near plane, 1 at the object's far side) of the
+    /// point at relief depth `z` on the ray of pixel `(x, y)`.
+    pub fn eval_depth(&self, x: u32, y: u32, z: f32) -> f64 {
+        let (px, py) = (f64::from(x) + 0.5, f64::from(y) + 0.5);
+        self.e00 + px * self.epx + py * self.epy + f64::from(z) * self.de
+    }
+
+    /// Pixel bounds `[x0, x1, y0, y1]` (half-open) outside which no ray meets the relief
+    /// volume, on an evaluation image of edge `size`: for skipping work, conservative.
+    pub fn footprint(&self, size: u32) -> [u32; 4] {
+        // Pixel positions are affine in texture space, so the pixels whose segment meets the
+        // window lie in the box of the window's corners mapped back at z = 0 and z = 254.
+        let [ex0, ex1] = self.ex.map(f64::from);
+        let [ey0, ey1] = self.ey.map(f64::from);
+        let det = ex0 * ey1 - ex1 * ey0;
+        if det.is_nan() || det.abs() <= 1e-12 {
+            return [0, size, 0, size];
+        }
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        let n = f64::from(self.n_f);
+        for z in [0.0, f64::from(MAX_DEPTH)] {
+            for (cx, cy) in [(0.0, 0.0), (n, 0.0), (0.0, n), (n, n)] {
+                let rx = cx - f64::from(self.o0[0]) - z * f64::from(self.dir[0]);
+                let ry = cy - f64::from(self.o0[1]) - z * f64::from(self.dir[1]);
+                let px = (rx * ey1 - ry * ey0) / det;
+                let py = (ex0 * ry - ex1 * rx) / det;
+                lo = [lo[0].min(px), lo[1].min(py)];
+                hi = [hi[0].max(px), hi[1].max(py)];
+            }
+        }
+        // Pixel x's centre is at x + 0.5; two pixels of slack cover f32 rounding.
+        let clamp = |v: f64| v.clamp(0.0, f64::from(size)) as u32;
+        [
+            clamp(lo[0] - 2.0),
+            clamp(hi[0] + 2.0),
+            clamp(lo[1] - 2.0),
+            clamp(hi[1] + 2.0),
+        ]
+    }
+}
+
+/// What the lockstep search decided for one lane.
+#[derive(Clone, Copy)]
+enum Lane {
+    Miss,
+    Covered,
+    /// The binary search and the wall test decide.
+    Refine(Bracket),
+}
+
+/// A linear-search bracket on the ray that crosses the near plane at `(ox, oy)`.
+#[derive(Clone, Copy, Default)]
+struct Bracket {
+    ox: f32,
+    oy: f32,
+    lo: f32,
+    hi: f32,
+}
+
+/// `if c { a } else { b }` without a branch: the binary search's outcome is a coin toss for
+/// the branch predictor, and a mispredicted branch costs more than the whole step.
+#[inline]
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    let m = 0u32.wrapping_sub(u32::from(c));
+    f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
+}
+
+/// Rule 6: whether samples with depth codes `a` and `b` bracket a vertical wall.
+#[inline]
+fn is_wall(a: u8, b: u8, threshold_codes: f32) -> bool {
+    (a == EMPTY_DEPTH) != (b == EMPTY_DEPTH)
+        || (f32::from(a) - f32::from(b)).abs() > threshold_codes
+}
+
+fn minmax(a: usize, b: usize) -> (usize, usize) {
+    if a < b { (a, b) } else { (b, a) }
+}
+
+/// Where a map has walls, for [`ImpostorRays::covers`]: one bit per texel `t`, set when a
+/// pair (`t`, `t + e`), `e` in {(1, 0), (0, 1), (1, 1), (-1, 1)} (every pair of 8-neighbours
+/// once), is a wall by rule 6. Rows of 64-bit words: 8 KiB for a 256 x 256 map, so queries
+/// stay in the first-level cache.
+#[derive(Clone, Debug)]
+pub struct WallMap {
+    words_per_row: usize,
+    bits: Vec<u64>,
+}
+
+impl WallMap {
+    /// The walls of a `size` x `size` depth map for a threshold in depth codes.
+    pub fn new(depth: &[u8], size: u32, threshold_codes: f32) -> WallMap {
+        let n = size as usize;
+        let words_per_row = n.div_ceil(64);
+        let wall = |x: usize, y: usize, x2: usize, y2: usize| {
+            is_wall(depth[y * n + x], depth[y2 * n + x2], threshold_codes)
+        };
+        let mut bits = vec![0u64; words_per_row * n];
+        for y in 0..n {
+            for x in 0..n {
+                let flagged = (x + 1 < n && wall(x, y, x + 1, y))
+                    || (y + 1 < n && wall(x, y, x, y + 1))
+                    || (x + 1 < n && y + 1 < n && wall(x, y, x + 1, y + 1))
+                    || (x > 0 && y + 1 < n && wall(x, y, x - 1, y + 1));
+                if flagged {
+                    bits[y * words_per_row + x / 64] |= 1 << (x % 64);
+                }
+            }
+        }
+        WallMap {
+            words_per_row,
+            bits,
+        }
+    }
+
+    /// Whether a flagged texel lies in `[x0, x1] x [y0, y1]` (inclusive).
+    #[inline]
+    pub fn any(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> bool {
+        let (w0, w1) = (x0 / 64, x1 / 64);
+        // Bits x0 % 64 and up of the first word, up to x1 % 64 of the last.
+        let first = u64::MAX << (x0 % 64);
+        let last = u64::MAX >> (63 - x1 % 64);
+        for y in y0..=y1 {
+            let row = &self.bits[y * self.words_per_row..(y + 1) * self.words_per_row];
+            let hit = if w0 == w1 {
+                row[w0] & first & last != 0
+            } else {
+                let mut any = row[w0] & first != 0 || row[w1] & last != 0;
+                for &w in &row[w0 + 1..w1] {
+                    any |= w != 0;
+                }
+                any
+            };
+            if hit {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+/// Narrow `span` to the depths where `o + z * d` lies in `[0, n]`; false when nothing is left.
+#[inline]
+fn clip(o: f32, d: f32, n: f32, span: &mut (f32, f32)) -> bool {
+    if d == 0.0 {
+        return o >= 0.0 && o <= n && span.0 < span.1;
+    }
+    let (a, b) = ((0.0 - o) / d, (n - o) / d);
+    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+    span.0 = span.0.max(lo);
+    span.1 = span.1.min(hi);
+    span.0 < span.1
+}

@@ -1,0 +1,131 @@
+//! Pixel sets as bitsets: how subsets of impostors are combined without re-rendering.
+
+/// A set of pixels of a `size` x `size` image, one bit per pixel in row-major order.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Mask {
+    size: u32,
+    words: Vec<u64>,
+}
+
+impl Mask {
+    /// The empty set.
+    pub fn new(size: u32) -> Mask {
+        let bits = size as usize * size as usize;
+        Mask {
+            size,
+            words: vec![0; bits.div_ceil(64)],
+        }
+    }
+
+    /// Image edge in pixels.
+    pub fn size(&self) -> u32 {
+        self.size
+    }
+
+    /// Whether pixel `i` (row-major index) is in the set.
+    pub fn get(&self, i: usize) -> bool {
+        self.words[i / 64] >> (i % 64) & 1 != 0
+    }
+
+    /// Add pixel `i`.
+    pub fn set(&mut self, i: usize) {
+        self.words[i / 64] |= 1 << (i % 64);
+    }
+
+    /// Number of pixels in the set.
+    pub fn count(&self) -> u32 {
+        self.words.iter().map(|w| w.count_ones()).sum()
+    }
+
+    /// `self |= other`.
+    ///
+    /// # Panics
+    /// If the sizes differ.
+    pub fn union_with(&mut self, other: &Mask) {
+        assert_eq!(self.size, other.size, "masks of different sizes");
+        for (a, b) in self.words.iter_mut().zip(&other.words) {
+            *a |= b;
+        }
+    }
+
+    /// The number of pixels in `self` and not in `other`: `|self \ other|`.
+    ///
+    /// # Panics
+    /// If the sizes differ.
+    pub fn count_minus(&self, other: &Mask) -> u32 {
+        assert_eq!(self.size, other.size, "masks of different sizes");
+        self.words
+            .iter()
+            .zip(&other.words)
+            .map(|(a, b)| (a & !b).count_ones())
+            .sum()
+    }
+
+    /// Row-major indices of the pixels in the set, in increasing order.
+    pub fn ones(&self) -> impl Iterator<Item = usize> + '_ {
+        self.words.iter().enumerate().flat_map(|(w, &word)| {
+            let mut bits = word;
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    w * 64 + b
+                })
+            })
+        })
+    }
+
+    /// Indices of the pixels in the set within `start..end`, in increasing order.
+    pub fn ones_in(&self, start: usize, end: usize) -> impl Iterator<Item = usize> + '_ {
+        let end = end.min(self.size as usize * self.size as usize);
+        let (w0, w1) = (start / 64, end.div_ceil(64));
+        (w0..w1.max(w0)).flat_map(move |w| {
+            let mut bits = self.words[w];
+            if w == start / 64 {
+                bits &= u64::MAX << (start % 64);
+            }
+            if w == end / 64 {
+                bits &= !(u64::MAX << (end % 64));
+            }
+            std::iter::from_fn(move || {
+                (bits != 0).then(|| {
+                    let b = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    w * 64 + b
+                })
+            })
+        })
+    }
+
+    /// The 64-bit words, pixel `i` at bit `i % 64` of word `i / 64`; bits past `size^2` are 0.
+    pub fn words(&self) -> &[u64] {
+        &self.words
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_count_union_and_difference() {
+        let mut a = Mask::new(10);
+        let mut b = Mask::new(10);
+        for i in [0, 63, 64, 99] {
+            a.set(i);
+        }
+        for i in [63, 70] {
+            b.set(i);
+        }
+        assert_eq!(a.count(), 4);
+        assert_eq!(a.count_minus(&b), 3);
+        assert_eq!(a.ones().collect::<Vec<_>>(), [0, 63, 64, 99]);
+        assert_eq!(a.ones_in(1, 99).collect::<Vec<_>>(), [63, 64]);
+        assert_eq!(a.ones_in(64, 100).collect::<Vec<_>>(), [64, 99]);
+        assert_eq!(a.ones_in(0, 64).collect::<Vec<_>>(), [0, 63]);
+        a.union_with(&b);
+        assert_eq!(a.count(), 5);
+        assert!(a.get(70) && !a.get(71));
+        assert_eq!(a.words().len(), 2);
+    }
+}

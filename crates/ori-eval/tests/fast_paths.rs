@@ -1,0 +1,86 @@
+//! The fast paths selection runs on give exactly what the full renders give.
+
+mod common;
+
+use ori_eval::{EvalParams, Evaluator, Mask};
+use ori_raster::{EMPTY, rasterize};
+
+#[test]
+fn mesh_coverage_is_the_rasterizer_coverage() {
+    let (mesh, set) = common::bunny();
+    let ev = Evaluator::new(mesh, set, &EvalParams::default()).unwrap();
+    for w in ori_views::evaluation_directions().iter().step_by(20) {
+        let view = ev.view(*w).unwrap();
+        let fast = ev.mesh_coverage(&view);
+        let r = rasterize(&view, &mesh.positions, &mesh.triangles, None);
+        let mut full = Mask::new(view.size);
+        for (i, &t) in r.tri.iter().enumerate() {
+            if t != EMPTY {
+                full.set(i);
+            }
+        }
+        assert_eq!(fast, full, "direction {w:?}");
+    }
+}
+
+#[test]
+fn impostor_masks_are_the_traced_coverage() {
+    let (mesh, set) = common::bunny();
+    for wall_threshold in [0.05, 0.125, 0.3] {
+        let params = EvalParams {
+            wall_threshold,
+            ..EvalParams::default()
+        };
+        let ev = Evaluator::new(mesh, set, &params).unwrap();
+        for w in ori_views::evaluation_directions().iter().step_by(53) {
+            let view = ev.view(*w).unwrap();
+            for &i in ev.facing(*w).iter().take(6) {
+                let fast = ev.impostor_mask(&view, i, None);
+                let layer = ev.layer(&view, i, None);
+                assert_eq!(&fast, layer.mask(), "impostor {i}, direction {w:?}");
+                let within = ev.mesh_coverage(&view);
+                let restricted = ev.impostor_mask(&view, i, Some(&within));
+                assert_eq!(restricted.count(), fast.count() - fast.count_minus(&within));
+            }
+        }
+    }
+}
+
+#[test]
+fn alpha_tested_coverage_is_the_baked_coverage() {
+    let mesh = common::load("vegetation/fern_02/fern_02.glb");
+    assert!(
+        mesh.materials
+            .iter()
+            .any(|m| m.alpha_mode == ori_mesh::AlphaMode::Mask),
+        "the fern is alpha-tested"
+    );
+    // One impostor is enough to build an evaluator; the reference is what matters here.
+    let params = ori_bake::BakeParams {
+        resolution: 128,
+        supersample: 1,
+        margin: 0,
+    };
+    let dirs = ori_views::evaluation_directions();
+    let set = ori_bake::bake(&mesh, &dirs[..1], &params).unwrap();
+    let ev = Evaluator::new(
+        &mesh,
+        &set,
+        &EvalParams {
+            s0: 128,
+            ..EvalParams::default()
+        },
+    )
+    .unwrap();
+    for w in dirs.iter().step_by(40) {
+        let view = ev.view(*w).unwrap();
+        let baked = ori_bake::bake(&mesh, &[*w], &params).unwrap();
+        let mut expected = Mask::new(128);
+        for (i, &d) in baked.maps[0].depth.iter().enumerate() {
+            if d != ori_bake::EMPTY_DEPTH {
+                expected.set(i);
+            }
+        }
+        assert_eq!(ev.mesh_coverage(&view), expected, "direction {w:?}");
+    }
+}

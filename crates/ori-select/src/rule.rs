@@ -1,0 +1,161 @@
+//! Selection rules and the `[select]` parameters.
+
+use std::fmt;
+use std::str::FromStr;
+
+use ori_eval::EvalParams;
+use serde::{Deserialize, Serialize};
+
+use crate::SelectError;
+
+/// How the impostors of a view are chosen (ORI paper, 3.2). Written `"closest:M"` or
+/// `"best:M"` in `pipeline.toml`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub enum Rule {
+    /// "m closest": the `M` facing impostors closest to the view direction, all drawn.
+    Closest(u32),
+    /// "i <= m best": the smallest subset of the `M` closest facing impostors whose coverage
+    /// error reaches the goal (see [`crate::choose`]).
+    Best(u32),
+}
+
+/// Largest `M` of `best:M`: 2^M - 1 subsets are tried per view.
+pub const MAX_BEST: u32 = 16;
+
+impl Rule {
+    /// `M`.
+    pub fn m(self) -> u32 {
+        match self {
+            Rule::Closest(m) | Rule::Best(m) => m,
+        }
+    }
+}
+
+impl fmt::Display for Rule {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Rule::Closest(m) => write!(f, "closest:{m}"),
+            Rule::Best(m) => write!(f, "best:{m}"),
+        }
+    }
+}
+
+impl FromStr for Rule {
+    type Err = SelectError;
+
+    fn from_str(s: &str) -> Result<Rule, SelectError> {
+        let bad = || {
+            SelectError::Params(format!(
+                "select.rule = {s:?}: expected \"closest:M\" (M >= 1) or \"best:M\" (1 <= M <= \
+                 {MAX_BEST})"
+            ))
+        };
+        let (kind, m) = s.split_once(':').ok_or_else(bad)?;
+        let m: u32 = m.parse().map_err(|_| bad())?;
+        match kind {
+            "closest" if m >= 1 => Ok(Rule::Closest(m)),
+            "best" if (1..=MAX_BEST).contains(&m) => Ok(Rule::Best(m)),
+            _ => Err(bad()),
+        }
+    }
+}
+
+impl TryFrom<String> for Rule {
+    type Error = SelectError;
+
+    fn try_from(s: String) -> Result<Rule, SelectError> {
+        s.parse()
+    }
+}
+
+impl From<Rule> for String {
+    fn from(r: Rule) -> String {
+        r.to_string()
+    }
+}
+
+/// Parameters of selection; the `[select]` section of `pipeline.toml` deserialises into it.
+/// The rendering keys are those of the runtime rule, so they must match the runtime's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelectParams {
+    /// `"best:6"` (default) or `"closest:M"`.
+    pub rule: Rule,
+    /// Coverage-error goal of `best:M`, in percent of s0 x s0 (default 0.2).
+    pub goal_percent: f64,
+    /// Evaluation image edge s0 (default 256).
+    pub s0: u32,
+    /// Linear-search steps of the runtime rule (default 16).
+    pub linear_steps: u32,
+    /// Binary-search steps of the runtime rule (default 7).
+    pub binary_steps: u32,
+    /// Vertical-wall threshold of the runtime rule, fraction of an impostor's depth range
+    /// (default 0.125).
+    pub wall_threshold: f64,
+}
+
+impl Default for SelectParams {
+    fn default() -> Self {
+        let e = EvalParams::default();
+        SelectParams {
+            rule: Rule::Best(6),
+            goal_percent: 0.2,
+            s0: e.s0,
+            linear_steps: e.linear_steps,
+            binary_steps: e.binary_steps,
+            wall_threshold: e.wall_threshold,
+        }
+    }
+}
+
+impl SelectParams {
+    /// Check every field, with a message that names the key and what it accepts.
+    pub fn validate(&self) -> Result<(), SelectError> {
+        if let Rule::Best(m) = self.rule
+            && !(1..=MAX_BEST).contains(&m)
+        {
+            return Err(SelectError::Params(format!(
+                "select.rule = \"best:{m}\": M must be 1 to {MAX_BEST}"
+            )));
+        }
+        if self.rule.m() == 0 {
+            return Err(SelectError::Params(
+                "select.rule: M must be at least 1".into(),
+            ));
+        }
+        if !(0.0..=100.0).contains(&self.goal_percent) {
+            return Err(SelectError::Params(format!(
+                "select.goal_percent = {} must be 0 to 100",
+                self.goal_percent
+            )));
+        }
+        self.eval_params()
+            .validate()
+            .map_err(|e| SelectError::Params(format!("select: {e}")))
+    }
+
+    /// The evaluator's parameters (fragment priority does not change coverage, so it is not
+    /// a selection parameter).
+    pub fn eval_params(&self) -> EvalParams {
+        EvalParams {
+            s0: self.s0,
+            linear_steps: self.linear_steps,
+            binary_steps: self.binary_steps,
+            wall_threshold: self.wall_threshold,
+            ..EvalParams::default()
+        }
+    }
+
+    /// The goal as a pixel count: a subset reaches it when its coverage error is at most
+    /// `floor(goal_percent / 100 * s0^2)` pixels.
+    pub fn goal_pixels(&self) -> u32 {
+        goal_pixels(self.goal_percent, self.s0)
+    }
+}
+
+pub(crate) fn goal_pixels(goal_percent: f64, s0: u32) -> u32 {
+    let s2 = f64::from(s0) * f64::from(s0);
+    // Truncation is floor for the non-negative values validation allows.
+    (goal_percent / 100.0 * s2) as u32
+}

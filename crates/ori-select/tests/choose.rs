@@ -1,0 +1,80 @@
+//! The subset search on hand-made masks: sizes, goal, tie-breaking, ordering.
+
+use ori_eval::Mask;
+use ori_select::{Choice, Rule, ViewMasks, choose};
+
+/// A 4 x 4 image whose first `n` pixels the mesh covers.
+fn reference(n: usize) -> Mask {
+    let mut m = Mask::new(4);
+    (0..n).for_each(|i| m.set(i));
+    m
+}
+
+fn mask(pixels: &[usize]) -> Mask {
+    let mut m = Mask::new(4);
+    pixels.iter().for_each(|&i| m.set(i));
+    m
+}
+
+fn masks(candidates: &[(usize, &[usize])]) -> ViewMasks {
+    ViewMasks {
+        reference: reference(10),
+        candidates: candidates.iter().map(|&(i, p)| (i, mask(p))).collect(),
+    }
+}
+
+fn choice(impostors: &[usize], missed: u32) -> Choice {
+    Choice {
+        impostors: impostors.to_vec(),
+        missed,
+    }
+}
+
+#[test]
+fn the_smallest_size_that_reaches_the_goal_wins() {
+    // Candidates closest first: impostor 7, then 3, then 5.
+    let vm = masks(&[
+        (7, &[0, 1, 2, 3, 4, 5]),
+        (3, &[6, 7, 8, 9]),
+        (5, &[0, 1, 2, 3, 4, 5, 6, 7]),
+    ]);
+    // Goal 2: impostor 5 alone misses 2 (8 and 9); the pair {7, 3} misses nothing, but a
+    // single impostor reaching the goal wins.
+    assert_eq!(choose(&vm, Rule::Best(3), 2), choice(&[5], 2));
+    // Goal 0: no single one reaches it; among the pairs {7, 3} and {3, 5} miss nothing;
+    // sorted indices [3, 5] < [3, 7], and the list is drawn closest first.
+    assert_eq!(choose(&vm, Rule::Best(3), 0), choice(&[3, 5], 0));
+    // best:1 looks at the closest candidate only.
+    assert_eq!(choose(&vm, Rule::Best(1), 10), choice(&[7], 4));
+    // closest:M draws the M closest, whatever they miss.
+    assert_eq!(choose(&vm, Rule::Closest(2), 0), choice(&[7, 3], 0));
+    assert_eq!(choose(&vm, Rule::Closest(9), 0), choice(&[7, 3, 5], 0));
+}
+
+#[test]
+fn ties_go_to_lower_impostor_indices() {
+    // Two singles miss the same 5 pixels: the lower index (2) wins, though 9 is closer.
+    let vm = masks(&[(9, &[0, 1, 2, 3, 4]), (2, &[5, 6, 7, 8, 9])]);
+    assert_eq!(choose(&vm, Rule::Best(2), 5), choice(&[2], 5));
+}
+
+#[test]
+fn without_a_subset_at_the_goal_the_least_error_wins_smaller_on_ties() {
+    // Nothing reaches goal 0. {4} misses 2, {4, 8} misses 2 as well (8 adds nothing new to
+    // the reference), {4, 1} misses 1: the least error wins over the smaller size.
+    let vm = masks(&[(4, &[0, 1, 2, 3, 4, 5, 6, 7]), (8, &[0, 1]), (1, &[8])]);
+    assert_eq!(choose(&vm, Rule::Best(3), 0), choice(&[4, 1], 1));
+    // With only {4} and {8}: {4} and {4, 8} tie at 2, the smaller wins.
+    let vm = masks(&[(4, &[0, 1, 2, 3, 4, 5, 6, 7]), (8, &[0, 1])]);
+    assert_eq!(choose(&vm, Rule::Best(2), 0), choice(&[4], 2));
+}
+
+#[test]
+fn no_facing_impostor_draws_nothing() {
+    let vm = ViewMasks {
+        reference: reference(10),
+        candidates: Vec::new(),
+    };
+    assert_eq!(choose(&vm, Rule::Best(6), 0), choice(&[], 10));
+    assert_eq!(choose(&vm, Rule::Closest(4), 0), choice(&[], 10));
+}

@@ -1,0 +1,213 @@
+//! `cargo xtask eval-table MODEL`: the ORI paper's Table 1 for any model (coverage error
+//! min / max / avg, PLT, impostors per view for the 1 to 4 closest impostors and `best:M`),
+//! plus the rows the paper left out: inverse coverage, p_dif and depth error.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use ori_eval::{EvalParams, Evaluator};
+use ori_select::{Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Model file (glTF/GLB, OBJ or PLY).
+    model: PathBuf,
+    /// Number of impostors n (view planning, default strategy).
+    #[arg(long, default_value_t = 20)]
+    impostors: usize,
+    /// Relief-map resolution.
+    #[arg(long, default_value_t = 256)]
+    resolution: u32,
+    /// The `best:M` rule of the last column.
+    #[arg(long, default_value = "best:6")]
+    best: Rule,
+    /// Coverage-error goal of `best:M`, percent of s0 x s0.
+    #[arg(long)]
+    goal_percent: Option<f64>,
+    /// Evaluation image edge s0.
+    #[arg(long)]
+    s0: Option<u32>,
+    /// Linear-search steps of the runtime rule.
+    #[arg(long)]
+    linear_steps: Option<u32>,
+    /// Binary-search steps of the runtime rule.
+    #[arg(long)]
+    binary_steps: Option<u32>,
+    /// Vertical-wall threshold, fraction of an impostor's depth range.
+    #[arg(long)]
+    wall_threshold: Option<f64>,
+    /// Write the error picture of each column's worst view into DIR (PNG).
+    #[arg(long, value_name = "DIR")]
+    pictures: Option<PathBuf>,
+}
+
+/// Exit status 1: the model cannot be loaded or evaluated; 2: bad options.
+pub fn run(args: Args) -> ExitCode {
+    let defaults = SelectParams::default();
+    let params = SelectParams {
+        rule: args.best,
+        goal_percent: args.goal_percent.unwrap_or(defaults.goal_percent),
+        s0: args.s0.unwrap_or(defaults.s0),
+        linear_steps: args.linear_steps.unwrap_or(defaults.linear_steps),
+        binary_steps: args.binary_steps.unwrap_or(defaults.binary_steps),
+        wall_threshold: args.wall_threshold.unwrap_or(defaults.wall_threshold),
+    };
+    if let Err(e) = params.validate() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
+    match table(&args, &params) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
+    let started = Instant::now();
+    let mesh = ori_mesh::load_file(&args.model, &Default::default())
+        .map_err(|e| e.to_string())?
+        .mesh;
+    let views = ori_views::ViewParams {
+        count: args.impostors,
+        ..Default::default()
+    };
+    let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
+    let bake = ori_bake::BakeParams {
+        resolution: args.resolution,
+        ..Default::default()
+    };
+    let set = ori_bake::bake(&mesh, &plan.directions, &bake).map_err(|e| e.to_string())?;
+    let built = started.elapsed();
+
+    let eval: EvalParams = params.eval_params();
+    let evaluator = Evaluator::new(&mesh, &set, &eval).map_err(|e| e.to_string())?;
+    let rules = [
+        Rule::Closest(1),
+        Rule::Closest(2),
+        Rule::Closest(3),
+        Rule::Closest(4),
+        params.rule,
+    ];
+    let directions = ori_views::evaluation_directions();
+    let started = Instant::now();
+    let per_view = evaluate_rules(&evaluator, &directions, &rules, params.goal_pixels())
+        .map_err(|e| e.to_string())?;
+    let evaluated = started.elapsed();
+    let summaries = summarize(&rules, &per_view);
+
+    println!(
+        "{} ({} faces): n = {} ({}), maps {r} x {r}, s0 = {}, {} + {} steps, wall threshold {}, \
+         goal {}%",
+        args.model.display(),
+        mesh.triangles.len(),
+        set.maps.len(),
+        views.strategy.name(),
+        params.s0,
+        params.linear_steps,
+        params.binary_steps,
+        params.wall_threshold,
+        params.goal_percent,
+        r = args.resolution,
+    );
+    print_table(&summaries, &per_view, params.s0);
+    let best = rules.len() - 1;
+    let mut counts = vec![0u32; params.rule.m() as usize + 1];
+    for v in &per_view {
+        counts[v[best].impostors.len()] += 1;
+    }
+    let shares: Vec<String> = counts
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(k, &c)| format!("{k}: {:.1}%", 100.0 * f64::from(c) / per_view.len() as f64))
+        .collect();
+    println!(
+        "{} views by impostor count: {}",
+        params.rule,
+        shares.join(", ")
+    );
+    println!(
+        "time: plan + bake {:.2} s, evaluation of {} views {:.2} s",
+        built.as_secs_f64(),
+        directions.len(),
+        evaluated.as_secs_f64()
+    );
+    if let Some(dir) = &args.pictures {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        for (r, s) in summaries.iter().enumerate() {
+            let worst = (0..per_view.len())
+                .max_by_key(|&d| (per_view[d][r].errors.missed, std::cmp::Reverse(d)))
+                .unwrap_or(0);
+            let view = evaluator
+                .view(directions[worst])
+                .map_err(|e| e.to_string())?;
+            let reference = evaluator.render_mesh(&view).map_err(|e| e.to_string())?;
+            let ori = evaluator.render_ori(&view, &per_view[worst][r].impostors);
+            let name = s.rule.to_string().replace(':', "-");
+            let path = dir.join(format!("worst-{name}-view{worst}.png"));
+            ori_eval::write_error_png(&path, &view, &reference, &ori)?;
+            println!("wrote {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+fn print_table(summaries: &[RuleSummary], per_view: &[Vec<ori_select::RuleView>], s0: u32) {
+    let head: Vec<String> = summaries
+        .iter()
+        .map(|s| match s.rule {
+            Rule::Closest(m) => format!("{m} cl."),
+            Rule::Best(m) => format!("i<={m} best"),
+        })
+        .collect();
+    let row = |name: &str, cells: Vec<String>| {
+        let cells: Vec<String> = cells.iter().map(|c| format!("{c:>11}")).collect();
+        println!("{name:<22}{}", cells.join(""));
+    };
+    row("", head);
+    let pct = |f: fn(&RuleSummary) -> f64| -> Vec<String> {
+        summaries.iter().map(|s| format!("{:.3}%", f(s))).collect()
+    };
+    row("coverage error min", pct(|s| s.min_percent));
+    row("coverage error max", pct(|s| s.max_percent));
+    row("coverage error avg", pct(|s| s.avg_percent));
+    row(
+        "PLT",
+        (0..summaries.len())
+            .map(|r| {
+                let missed: Vec<u32> = per_view.iter().map(|v| v[r].errors.missed).collect();
+                ori_plt::estimate(s0, &missed).to_string()
+            })
+            .collect(),
+    );
+    row(
+        "impostors per view",
+        summaries
+            .iter()
+            .map(|s| match s.rule {
+                Rule::Closest(_) => format!("{:.0}", s.avg_impostors),
+                Rule::Best(_) => format!("{:.2} avg", s.avg_impostors),
+            })
+            .collect(),
+    );
+    row("inverse coverage avg", pct(|s| s.avg_extra_percent));
+    row("inverse coverage max", pct(|s| s.max_extra_percent));
+    row(
+        "p_dif avg (0-765)",
+        summaries
+            .iter()
+            .map(|s| format!("{:.1}", s.avg_p_dif))
+            .collect(),
+    );
+    row(
+        "depth error avg",
+        summaries
+            .iter()
+            .map(|s| format!("{:.4}", s.avg_depth_error))
+            .collect(),
+    );
+}
