@@ -5,7 +5,7 @@
 //! A test holds the two equal.
 
 use ori_mesh::Mesh;
-use ori_raster::OrthoView;
+use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, fmax, fmin};
 
 use crate::Mask;
 use crate::reference::AlphaCut;
@@ -82,9 +82,6 @@ impl CoverageMesh {
 
 /// Keys at or above this mark corners that are not strictly between two centre lines.
 const KEYED: u32 = 1 << 31;
-
-/// Screen-space slack of `ori_raster`'s f32 pre-test.
-const SLACK: f32 = 1e-2;
 
 /// Per-vertex data of one view, reused between views (a fresh multi-megabyte buffer per
 /// view costs page faults): the first test's column and row keys, read for every triangle,
@@ -196,34 +193,6 @@ fn all_covered(mask: &Mask, n: usize, x0: usize, x1: usize, y0: usize, y1: usize
         }
     }
     true
-}
-
-fn fmin(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
-fn fmax(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
-}
-
-fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
-    if !(hi >= 0.0 && lo <= (n - 1) as f32) {
-        return false;
-    }
-    if lo <= 0.0 {
-        return true;
-    }
-    let t = lo as i32;
-    let first = if (t as f32) < lo { t + 1 } else { t };
-    first as f32 <= hi
-}
-
-fn ceil_nonneg(v: f64) -> usize {
-    if v <= 0.0 {
-        return 0;
-    }
-    let t = v as usize;
-    if (t as f64) < v { t + 1 } else { t }
 }
 
 fn edge(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {

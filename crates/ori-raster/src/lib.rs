@@ -285,11 +285,12 @@ pub fn rasterize_scales(
 
 /// `a.min(b)` without NaN handling (a NaN only makes the pre-test pass, and the exact test
 /// rejects it).
-fn fmin(a: f32, b: f32) -> f32 {
+pub fn fmin(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
-fn fmax(a: f32, b: f32) -> f32 {
+/// `a.max(b)` without NaN handling (see [`fmin`]).
+pub fn fmax(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
 
@@ -383,10 +384,10 @@ fn draw(
 }
 
 /// Screen-space slack of the f32 pre-test, far above f32 rounding at any image size we use.
-const SLACK: f32 = 1e-2;
+pub const SLACK: f32 = 1e-2;
 
 /// Whether some pixel-centre index `i` in `0..n` has `lo <= i <= hi` (false for NaN).
-fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
+pub fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
     if !(hi >= 0.0 && lo <= (n - 1) as f32) {
         return false;
     }
@@ -399,7 +400,7 @@ fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
 }
 
 /// `ceil(v)` for the pixel range, 0 for negative `v`.
-fn ceil_nonneg(v: f64) -> usize {
+pub fn ceil_nonneg(v: f64) -> usize {
     if v <= 0.0 {
         return 0;
     }
