@@ -7,9 +7,12 @@
 //! sRGB). Alpha-tested (MASK) materials cut holes.
 //!
 //! Choices:
-//! - Depth and coverage come from the texel centre, so every non-empty texel lies on the
-//!   surface within half a depth step. Colour and normal are averaged over `supersample`^2
-//!   samples that hit the surface (antialiasing without mixing in background).
+//! - Depth comes from the texel centre, so every texel whose centre hits lies on the surface
+//!   within half a depth step. Coverage is conservative: a texel whose centre misses but one
+//!   of its `supersample`^2 sub-samples hits is kept, at the nearest hit sub-sample's depth
+//!   (otherwise silhouettes lose up to half a texel at runtime). Colour and normal are
+//!   averaged over the sub-samples that hit the surface (antialiasing without mixing in
+//!   background).
 //! - Textures are minified through a mip chain (level picked per triangle from its texel-to-
 //!   sample ratio) and bilinear filtering, in linear space.
 //! - Empty texels get colour and normal by pull-push fill from the nearest surface, so
@@ -253,6 +256,7 @@ fn bake_one(
             let mut c = [0.0f32; 3];
             let mut nm = [0.0f64; 3];
             let mut hits = 0u32;
+            let mut top = f64::NEG_INFINITY;
             for sy in 0..s {
                 for sx in 0..s {
                     let f = (y * s + sy) * fine_n + x * s + sx;
@@ -266,6 +270,7 @@ fn bake_one(
                         c[k] += col[k];
                         nm[k] += nn[k];
                     }
+                    top = top.max(fine.height[f]);
                     hits += 1;
                 }
             }
@@ -281,6 +286,13 @@ fn bake_one(
                     nm = nn;
                     hits = 1;
                 }
+            } else if hits > 0 {
+                // An edge texel: the centre misses but a sub-sample hits. Keeping it (at the
+                // nearest sub-sample's depth) makes the silhouette conservative; leaving it
+                // empty loses about a third of a pixel along every silhouette at runtime
+                // (armadillo best:6 average coverage error 0.398 % -> 0.271 %).
+                let d = view.depth_of_height(top);
+                depth[i] = (d.clamp(0.0, 1.0) * f64::from(MAX_DEPTH)).round() as u8;
             }
             if hits > 0 {
                 let inv = 1.0 / hits as f32;

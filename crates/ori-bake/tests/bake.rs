@@ -104,8 +104,18 @@ fn every_bunny_texel_lies_on_the_surface_within_half_a_depth_step() {
                 if code == EMPTY_DEPTH {
                     continue;
                 }
-                let (h, _, _) = caster
-                    .cast(x as f64 + 0.5, y as f64 + 0.5)
+                // An edge texel (centre off the mesh) holds the nearest of its 2 x 2
+                // sub-samples that hit.
+                let centre = caster.cast(x as f64 + 0.5, y as f64 + 0.5).map(|c| c.0);
+                let edge = || {
+                    [(0.25, 0.25), (0.75, 0.25), (0.25, 0.75), (0.75, 0.75)]
+                        .iter()
+                        .filter_map(|&(dx, dy)| caster.cast(x as f64 + dx, y as f64 + dy))
+                        .map(|c| c.0)
+                        .reduce(f64::max)
+                };
+                let h = centre
+                    .or_else(edge)
                     .unwrap_or_else(|| panic!("map {m} texel ({x}, {y}) is not on the mesh"));
                 let exact = map.view.depth_of_height(h);
                 let stored = f64::from(code) / f64::from(MAX_DEPTH);

@@ -37,14 +37,14 @@
 //!
 //!   | threshold | armadillo               | Stanford bunny          |
 //!   |-----------|-------------------------|-------------------------|
-//!   | 0.0625    | 0.437 / 0.228 % / 17.8  | 0.813 / 0.155 % / 17.3  |
-//!   | **0.125** | 0.398 / 0.381 % / 20.5  | 0.676 / 0.215 % / 16.9  |
-//!   | 0.25      | 0.317 / 1.297 % / 36.8  | 0.439 / 0.676 % / 20.8  |
-//!   | 0.5       | 0.224 / 4.719 % / 90.4  | 0.188 / 1.838 % / 32.9  |
+//!   | 0.0625    | 0.271 / 0.374 % / 17.4  | 0.741 / 0.235 % / 17.3  |
+//!   | **0.125** | 0.247 / 0.511 % / 20.0  | 0.607 / 0.285 % / 16.9  |
+//!   | 0.25      | 0.199 / 1.226 % / 33.1  | 0.382 / 0.585 % / 18.8  |
+//!   | 0.5       | 0.167 / 3.567 % / 71.5  | 0.156 / 1.287 % / 25.5  |
 //!
 //!   Higher thresholds buy coverage by keeping relief "shadow volumes": the pixels they
 //!   cover are drawn with the wrong surface, and many fall outside the mesh. 0.125 is the
-//!   largest value that keeps inverse coverage under 0.4 % and p_dif within 15 % of its
+//!   largest value that keeps inverse coverage near 0.5 % and p_dif within 15 % of its
 //!   minimum; real surfaces steeper than about 86 to 88 degrees from the impostor direction
 //!   (steps over 32 codes between neighbouring texels) are the cost.
 //! - **Priority.** Option 3 (default): the list order, closest direction first. Option 5:

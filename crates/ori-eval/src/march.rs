@@ -13,10 +13,15 @@
 //!    `dir = (-(u . w), v . w) * texels_per_unit / ((d . w) * codes_per_unit)` the texel
 //!    displacement per depth code. Only impostors facing the viewer (`d . w > 0`) are drawn,
 //!    so `z` grows along the ray.
-//! 2. **Extent.** The searched segment `[z_in, z_out]` is the part of `0 <= z <= 254` where the
-//!    ray is inside the window `0 <= x, y <= N`: the quad is extended for skewed views (every
-//!    pixel whose ray meets the relief volume gets a fragment shader run), and the search is
-//!    confined to the relief volume. No such part: no fragment.
+//! 2. **Extent.** The searched segment `[z_in, z_out]` is the part of the ray inside the
+//!    occupied relief volume: depth codes `[z0, z1]` (the least and greatest stored code,
+//!    widened by one code each way within `[0, 254]`) and the texel box of the non-empty texels grown by one texel on each side (so a ray entering
+//!    from a side starts over an empty texel), within the window `0 <= x, y <= N`. The quad
+//!    is extended for skewed views (every pixel whose ray meets the volume gets a fragment
+//!    shader run), and the 16 steps are spent inside the volume only: on the armadillo this
+//!    lowers best:6's average coverage error from 0.271 % to 0.246 % against the whole
+//!    window and depth range. No such part: no fragment. The box is per map
+//!    ([`occupied_volume`]); the runtime gets it with the map.
 //! 3. **Lookup.** Nearest texel: the sample at `(x, y)` reads the depth code of texel
 //!    `(floor x, floor y)`, 255 (empty) outside `[0, N)`. Empty is deeper than any ray depth,
 //!    so a ray always passes over an empty texel.
@@ -89,6 +94,9 @@ pub struct ImpostorRays {
     /// `N - 1`: the largest texel coordinate.
     last: f32,
     params: MarchParams,
+    /// The relief volume actually occupied: texel-space box `[x0, x1] x [y0, y1]` and depth
+    /// codes `[z0, z1]` of the non-empty texels.
+    bounds: [f32; 6],
     threshold_codes: f32,
     /// Whether the binary search always ends on a bracket shorter than a texel, so that its
     /// two samples are the same or neighbouring texels (used by [`ImpostorRays::covers`]).
@@ -154,6 +162,7 @@ impl ImpostorRays {
             n_f: m.size as f32,
             last: (m.size - 1) as f32,
             params,
+            bounds: occupied_volume(&map.depth, m.size as usize),
             threshold_codes: params.threshold_codes(),
             adjacent_end: final_bracket < 0.75,
             e00: (eval.near - t00[2] / zr) / eval_range,
@@ -207,8 +216,9 @@ impl ImpostorRays {
         let ox = self.o0[0] + px * self.ex[0] + py * self.ey[0];
         let oy = self.o0[1] + px * self.ex[1] + py * self.ey[1];
         let [dx, dy] = self.dir;
-        let mut span = (0.0f32, f32::from(MAX_DEPTH));
-        if !(clip(ox, dx, self.n_f, &mut span) && clip(oy, dy, self.n_f, &mut span)) {
+        let b = self.bounds;
+        let mut span = (b[4], b[5]);
+        if !(clip(ox, dx, b[0], b[1], &mut span) && clip(oy, dy, b[2], b[3], &mut span)) {
             return None;
         }
         let (z_in, z_out) = span;
@@ -346,15 +356,20 @@ impl ImpostorRays {
         let ox = o0x.add(px.mul(exx)).add(py.mul(eyx));
         let oy = o0y.add(px.mul(exy)).add(py.mul(eyy));
         // Rule 2, as `clip` does it: the direction is the same for every lane.
-        let mut z_in = zero;
-        let mut z_out = F4::splat(f32::from(MAX_DEPTH));
+        let bd = self.bounds;
+        let mut z_in = F4::splat(bd[4]);
+        let mut z_out = F4::splat(bd[5]);
         let mut open = M4::from_array(std::array::from_fn(|l| l < pixels.len()));
-        for (o, d) in [(ox, self.dir[0]), (oy, self.dir[1])] {
+        for (o, d, lo, hi) in [
+            (ox, self.dir[0], bd[0], bd[1]),
+            (oy, self.dir[1], bd[2], bd[3]),
+        ] {
+            let (lo, hi) = (F4::splat(lo), F4::splat(hi));
             if d == 0.0 {
-                open = open.and(o.ge(zero)).and(o.le(n));
+                open = open.and(o.ge(lo)).and(o.le(hi));
             } else {
                 let d = F4::splat(d);
-                let (a, b) = (zero.sub(o).div(d), n.sub(o).div(d));
+                let (a, b) = (lo.sub(o).div(d), hi.sub(o).div(d));
                 z_in = z_in.max(a.min(b));
                 z_out = z_out.min(a.max(b));
             }
@@ -609,13 +624,45 @@ impl WallMap {
 
 /// Narrow `span` to the depths where `o + z * d` lies in `[0, n]`; false when nothing is left.
 #[inline]
-fn clip(o: f32, d: f32, n: f32, span: &mut (f32, f32)) -> bool {
+fn clip(o: f32, d: f32, lo: f32, hi: f32, span: &mut (f32, f32)) -> bool {
     if d == 0.0 {
-        return o >= 0.0 && o <= n && span.0 < span.1;
+        return o >= lo && o <= hi && span.0 < span.1;
     }
-    let (a, b) = ((0.0 - o) / d, (n - o) / d);
+    let (a, b) = ((lo - o) / d, (hi - o) / d);
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
     span.0 = span.0.max(lo);
     span.1 = span.1.min(hi);
     span.0 < span.1
+}
+
+/// The occupied relief volume of a map: `[x0, x1, y0, y1, z0, z1]` (texel edges and depth
+/// codes) around its non-empty texels; an empty box for an empty map.
+pub fn occupied_volume(depth: &[u8], n: usize) -> [f32; 6] {
+    let (mut x0, mut x1, mut y0, mut y1) = (n, 0, n, 0);
+    let (mut z0, mut z1) = (MAX_DEPTH, 0u8);
+    for (y, row) in depth.chunks_exact(n).enumerate() {
+        for (x, &c) in row.iter().enumerate() {
+            if c != EMPTY_DEPTH {
+                (x0, x1, y0, y1) = (x0.min(x), x1.max(x + 1), y0.min(y), y1.max(y + 1));
+                (z0, z1) = (z0.min(c), z1.max(c));
+            }
+        }
+    }
+    if x0 >= x1 {
+        return [0.0; 6];
+    }
+    // One empty texel around the box, so a ray entering from a side starts over empty and its
+    // step onto the relief is seen as the wall it is.
+    let (x0, y0) = (x0.saturating_sub(1), y0.saturating_sub(1));
+    let (x1, y1) = ((x1 + 1).min(n), (y1 + 1).min(n));
+    // And one code above and below, so that a flat relief (z0 == z1) has a segment to search.
+    let (z0, z1) = (z0.saturating_sub(1), z1.saturating_add(1).min(MAX_DEPTH));
+    [
+        x0 as f32,
+        x1 as f32,
+        y0 as f32,
+        y1 as f32,
+        f32::from(z0),
+        f32::from(z1),
+    ]
 }

@@ -58,23 +58,23 @@ fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
 
 #[test]
 fn bunny_quality() {
-    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.70, 3.40, 5.60);
+    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.63, 3.05, 4.90);
     // The worst views look up through the holes in the scan's base: no impostor sees the
     // inside through them (see the crate documentation).
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 29.0, "PLT {plt}");
+    assert!(plt.pixels() >= 31.0, "PLT {plt}");
 }
 
 #[test]
 fn armadillo_quality() {
     let sel = holds(
         "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        0.41,
-        1.27,
-        6.0,
+        0.26,
+        0.95,
+        5.35,
     );
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 78.0, "PLT {plt}");
+    assert!(plt.pixels() >= 100.0, "PLT {plt}");
 }
 
 #[test]
