@@ -2,114 +2,12 @@
 //! across processes, precise invalidation, explanations, corruption recovery, concurrent
 //! builders, bad input and bad configuration.
 
+mod common;
+
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-use serde_json::Value;
-
-const EXE: &str = env!("CARGO_BIN_EXE_xtask");
-
-fn samples() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples")
-}
-
-fn shared_models() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
-}
-
-/// A temporary project: `assets/` with copies of some samples, a `pipeline.toml`, and the
-/// cache and output inside.
-struct Project {
-    dir: tempfile::TempDir,
-}
-
-impl Project {
-    fn new(sample_folders: &[&str]) -> Project {
-        let dir = tempfile::tempdir().unwrap();
-        for folder in sample_folders {
-            copy_dir(
-                &samples().join(folder),
-                &dir.path().join("assets").join(folder),
-            );
-        }
-        let p = Project { dir };
-        p.config("");
-        p
-    }
-
-    fn path(&self, rel: &str) -> PathBuf {
-        self.dir.path().join(rel)
-    }
-
-    fn config(&self, extra: &str) {
-        fs::write(
-            self.path("pipeline.toml"),
-            format!("[assets]\nroot = \"assets\"\n[output]\ndir = \"out\"\n[cache]\ndir = \"cache\"\n{extra}"),
-        )
-        .unwrap();
-    }
-
-    fn build(&self, args: &[&str]) -> Output {
-        Command::new(EXE)
-            .arg("build-assets")
-            .arg("--config")
-            .arg(self.path("pipeline.toml"))
-            .args(args)
-            .env("CI", "1")
-            .output()
-            .unwrap()
-    }
-
-    fn report(&self) -> Value {
-        serde_json::from_slice(&fs::read(self.path("out/report.json")).unwrap()).unwrap()
-    }
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for entry in fs::read_dir(from).unwrap() {
-        let path = entry.unwrap().path();
-        fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
-    }
-}
-
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-/// The `ran` column of the summary line for `stage`.
-fn ran(out: &Output, stage: &str) -> usize {
-    let t = text(out);
-    t.lines()
-        .find(|l| l.split_whitespace().next() == Some(stage))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
-}
-
-/// The report as text, so a mismatch prints readably.
-fn report_text(p: &Project, out: &str) -> String {
-    fs::read_to_string(p.path(out).join("report.json")).unwrap()
-}
-
-fn ok(out: &Output) -> String {
-    assert!(out.status.success(), "build failed:\n{}", text(out));
-    text(out)
-}
-
-fn asset<'a>(report: &'a Value, name: &str) -> &'a Value {
-    report["assets"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|a| a["name"] == name)
-        .unwrap_or_else(|| panic!("{name} not in report: {report}"))
-}
+use common::*;
 
 #[test]
 fn cold_build_then_reuse_in_a_new_process() {

@@ -35,6 +35,11 @@ enum Command {
     CompressTexture(compress::Args),
     /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
     EvalTable(eval_table::Args),
+    /// Check a release folder against its release.json: hashes, sizes, package validity.
+    Verify {
+        /// The release folder (holding release.json).
+        dir: PathBuf,
+    },
 }
 
 #[derive(clap::Args)]
@@ -66,6 +71,10 @@ struct BuildArgs {
     /// Also write PNG pictures of every baked relief map into DIR/<asset>/.
     #[arg(long, value_name = "DIR")]
     dump_maps: Option<PathBuf>,
+    /// Also write every package as an inspectable folder (manifest.json, KTX2 files, PNG
+    /// previews) into DIR/<asset>/.
+    #[arg(long, value_name = "DIR")]
+    explode: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -75,6 +84,28 @@ fn main() -> ExitCode {
         Command::Bench { which } => bench::run(which),
         Command::CompressTexture(args) => compress::run(args),
         Command::EvalTable(args) => eval_table::run(args),
+        Command::Verify { dir } => verify(&dir),
+    }
+}
+
+/// Exit status 0: every package matches; 1: mismatches, each printed.
+fn verify(dir: &std::path::Path) -> ExitCode {
+    match ori_pipeline::release::verify(dir) {
+        Ok(n) => {
+            println!("{n} package(s) verified in {}", dir.display());
+            ExitCode::SUCCESS
+        }
+        Err(problems) => {
+            for p in &problems {
+                eprintln!("mismatch: {p}");
+            }
+            eprintln!(
+                "error: {} mismatch(es) in {}",
+                problems.len(),
+                dir.display()
+            );
+            ExitCode::from(1)
+        }
     }
 }
 
@@ -94,6 +125,7 @@ fn build(args: BuildArgs) -> ExitCode {
         dry_run: args.dry_run,
         progress,
         dump_maps: args.dump_maps,
+        explode: args.explode,
     };
     match build_assets(&options) {
         Ok(summary) => {

@@ -63,9 +63,10 @@ impl Default for BakeParams {
 impl BakeParams {
     /// Check every field, with a message that names the key and what it accepts.
     pub fn validate(&self) -> Result<(), BakeError> {
-        if !(8..=8192).contains(&self.resolution) {
+        // Powers of two only: block compression, mipmaps and the package format need them.
+        if !self.resolution.is_power_of_two() || !(8..=8192).contains(&self.resolution) {
             return Err(BakeError::Params(format!(
-                "bake.resolution = {} must be 8 to 8192",
+                "bake.resolution = {} must be a power of two from 8 to 8192 (or \"auto\")",
                 self.resolution
             )));
         }

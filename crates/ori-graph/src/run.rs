@@ -624,6 +624,14 @@ impl JobContext<'_> {
         })
     }
 
+    /// The content hash of the named input (the one its key was computed from), without
+    /// reading it: for stages that record where their inputs came from.
+    pub fn input_hash(&self, name: &str) -> Option<ContentHash> {
+        let job = self.exec.graph.job(self.id);
+        let position = job.inputs.iter().position(|(n, _)| n == name)?;
+        Some(self.inputs[position].1)
+    }
+
     /// The bytes of the named input, verified against the hash its key was computed from.
     pub fn input(&mut self, name: &str) -> Result<Vec<u8>, StageError> {
         let job = self.exec.graph.job(self.id);

@@ -87,6 +87,17 @@ pub struct StageParams {
     pub views: ori_views::ViewParams,
     #[serde(default)]
     pub bake: ori_bake::BakeParams,
+    #[serde(default)]
+    pub select: ori_select::SelectParams,
+    #[serde(default)]
+    pub compress: crate::package::CompressParams,
+    /// `[plt]`: the target of `bake.resolution = "auto"`.
+    #[serde(default)]
+    pub plt: ori_plt::PltParams,
+    /// `bake.resolution = "auto"`: the build picks the resolution (see `ori_plt::auto`);
+    /// `bake.resolution` then holds the default until it does.
+    #[serde(skip)]
+    pub auto_resolution: bool,
 }
 
 /// `[ingest]`: mesh loading.
@@ -123,6 +134,12 @@ struct ConfigFile {
     #[serde(default)]
     bake: Option<toml::Table>,
     #[serde(default)]
+    select: Option<toml::Table>,
+    #[serde(default)]
+    compress: Option<toml::Table>,
+    #[serde(default)]
+    plt: Option<toml::Table>,
+    #[serde(default)]
     overrides: Vec<OverrideFile>,
 }
 
@@ -137,6 +154,12 @@ struct OverrideFile {
     views: Option<toml::Table>,
     #[serde(default)]
     bake: Option<toml::Table>,
+    #[serde(default)]
+    select: Option<toml::Table>,
+    #[serde(default)]
+    compress: Option<toml::Table>,
+    #[serde(default)]
+    plt: Option<toml::Table>,
 }
 
 /// A glob where `*` stays within one path component and `**` crosses them.
@@ -148,7 +171,7 @@ pub(crate) fn glob(pattern: &str) -> Result<GlobMatcher, globset::Error> {
 }
 
 /// The stage sections present in a file (or an override), by name.
-fn stage_tables(sections: [(&str, Option<toml::Table>); 3]) -> toml::Table {
+fn stage_tables(sections: [(&str, Option<toml::Table>); 6]) -> toml::Table {
     let mut t = toml::Table::new();
     for (name, section) in sections {
         if let Some(section) = section {
@@ -171,11 +194,22 @@ fn merge(base: &mut toml::Table, over: &toml::Table) {
 }
 
 /// Deserialise stage sections and check their values.
-fn to_params(table: toml::Table) -> Result<StageParams, String> {
-    let params =
+fn to_params(mut table: toml::Table) -> Result<StageParams, String> {
+    let bake = table.get_mut("bake").and_then(|b| b.as_table_mut());
+    let auto = match bake {
+        Some(bake) if bake.get("resolution").and_then(|r| r.as_str()) == Some("auto") => {
+            bake.remove("resolution");
+            true
+        }
+        _ => false,
+    };
+    let mut params =
         StageParams::deserialize(toml::Value::Table(table)).map_err(|e| e.message().to_string())?;
+    params.auto_resolution = auto;
+    params.plt.validate()?;
     params.views.validate().map_err(|e| e.to_string())?;
     params.bake.validate().map_err(|e| e.to_string())?;
+    params.select.validate().map_err(|e| e.to_string())?;
     Ok(params)
 }
 
@@ -201,13 +235,23 @@ impl Config {
             ("ingest", file.ingest),
             ("views", file.views),
             ("bake", file.bake),
+            ("select", file.select),
+            ("compress", file.compress),
+            ("plt", file.plt),
         ]);
         to_params(stages.clone()).map_err(fail)?;
         let mut overrides = Vec::new();
         for (i, o) in file.overrides.into_iter().enumerate() {
             let what = format!("[[overrides]] #{} (assets = {:?})", i + 1, o.assets);
             let matcher = glob(&o.assets).map_err(|e| fail(format!("{what}: {e}")))?;
-            let over = stage_tables([("ingest", o.ingest), ("views", o.views), ("bake", o.bake)]);
+            let over = stage_tables([
+                ("ingest", o.ingest),
+                ("views", o.views),
+                ("bake", o.bake),
+                ("select", o.select),
+                ("compress", o.compress),
+                ("plt", o.plt),
+            ]);
             let mut merged = stages.clone();
             merge(&mut merged, &over);
             to_params(merged).map_err(|e| fail(format!("{what}: {e}")))?;

@@ -8,6 +8,8 @@
 pub mod config;
 pub mod discover;
 pub mod ingest;
+pub mod package;
+pub mod release;
 pub mod stages;
 
 use std::path::{Path, PathBuf};
@@ -49,6 +51,8 @@ pub struct BuildOptions {
     pub progress: ProgressMode,
     /// Write PNG pictures of every relief map into this folder.
     pub dump_maps: Option<PathBuf>,
+    /// Write every package as an inspectable folder into this folder.
+    pub explode: Option<PathBuf>,
 }
 
 /// The jobs of one asset.
@@ -58,28 +62,53 @@ pub struct AssetJobs {
     pub ingest: JobId,
     pub views: JobId,
     pub bake: JobId,
+    pub select: JobId,
+    pub plt: JobId,
+    pub compress: JobId,
+    pub package: JobId,
 }
 
 impl AssetJobs {
     /// Every job of the asset, upstream first.
-    pub fn all(&self) -> [JobId; 3] {
-        [self.ingest, self.views, self.bake]
+    pub fn all(&self) -> [JobId; 7] {
+        [
+            self.ingest,
+            self.views,
+            self.bake,
+            self.select,
+            self.plt,
+            self.compress,
+            self.package,
+        ]
     }
 }
 
-/// Build the job graph for `assets` under `config`.
-pub fn plan(config: &Config, assets: &[Asset]) -> (Graph, Vec<AssetJobs>) {
+/// One asset to plan: its parameters (overrides applied, resolution decided), and whether it
+/// gets the whole chain or, while `auto` resolution measures, only the jobs up to its PLT.
+#[derive(Clone, Debug)]
+pub struct PlannedAsset {
+    pub asset: Asset,
+    pub params: config::StageParams,
+    pub measure_only: bool,
+}
+
+/// Build the job graph for `assets`.
+pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
     let ingest_stage: Arc<dyn ori_graph::Stage> = Arc::new(ingest::IngestStage);
     let views_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::ViewsStage);
     let bake_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::BakeStage);
+    let select_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::SelectStage);
+    let plt_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::PltStage);
+    let compress_stage: Arc<dyn ori_graph::Stage> = Arc::new(package::CompressStage);
+    let package_stage: Arc<dyn ori_graph::Stage> = Arc::new(package::PackageStage);
     let output = |job: JobId, name: &str| Input::Output {
         job,
         name: name.to_string(),
     };
     let mut graph = Graph::new();
     let mut jobs = Vec::new();
-    for asset in assets {
-        let params = config.params_for(&asset.name);
+    for planned in assets {
+        let (asset, params) = (&planned.asset, &planned.params);
         let format = ori_mesh::Format::from_path(&asset.path);
         let ingest = graph.add(JobSpec {
             asset: asset.name.clone(),
@@ -105,14 +134,85 @@ pub fn plan(config: &Config, assets: &[Asset]) -> (Graph, Vec<AssetJobs>) {
                 (stages::VIEWS.into(), output(views, stages::VIEWS)),
             ],
         });
+        let select = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: select_stage.clone(),
+            params: to_json(&params.select),
+            inputs: vec![
+                (ingest::MESH.into(), output(ingest, ingest::MESH)),
+                (stages::MAPS.into(), output(bake, stages::MAPS)),
+            ],
+        });
+        let plt = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: plt_stage.clone(),
+            params: serde_json::json!({}),
+            inputs: vec![(stages::SELECTION.into(), output(select, stages::SELECTION))],
+        });
+        if planned.measure_only {
+            jobs.push(AssetJobs {
+                asset: asset.clone(),
+                ingest,
+                views,
+                bake,
+                select,
+                plt,
+                compress: plt,
+                package: plt,
+            });
+            continue;
+        }
+        let compress = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: compress_stage.clone(),
+            params: to_json(&params.compress),
+            inputs: vec![(stages::MAPS.into(), output(bake, stages::MAPS))],
+        });
+        let package_params = package::PackageParams {
+            name: asset.name.clone(),
+            tool: package::tool(),
+            depth: params.compress.depth,
+            pipeline: recorded_params(params),
+        };
+        let package = graph.add(JobSpec {
+            asset: asset.name.clone(),
+            stage: package_stage.clone(),
+            params: to_json(&package_params),
+            inputs: vec![
+                // Hashed, never read: the manifest records the source's content hash.
+                ("source".into(), Input::Source(asset.path.clone())),
+                (stages::MAPS.into(), output(bake, stages::MAPS)),
+                (stages::SELECTION.into(), output(select, stages::SELECTION)),
+                (stages::PLT.into(), output(plt, stages::PLT)),
+                (
+                    package::TEXTURES.into(),
+                    output(compress, package::TEXTURES),
+                ),
+            ],
+        });
         jobs.push(AssetJobs {
             asset: asset.clone(),
             ingest,
             views,
             bake,
+            select,
+            plt,
+            compress,
+            package,
         });
     }
     (graph, jobs)
+}
+
+/// The parameters a package records: every stage's, and whether the resolution was chosen
+/// by `auto`.
+fn recorded_params(params: &config::StageParams) -> serde_json::Value {
+    let mut json = to_json(params);
+    json["bake"]["resolution_auto"] = serde_json::Value::Bool(params.auto_resolution);
+    if !params.auto_resolution {
+        json.as_object_mut().expect("an object").remove("plt");
+    }
+    json
 }
 
 fn to_json<T: Serialize>(value: &T) -> serde_json::Value {
@@ -156,6 +256,71 @@ struct AssetReport {
     mesh_hash: Option<String>,
     /// Content hash of the baked relief maps.
     maps_hash: Option<String>,
+    /// Selection statistics and the projected length threshold.
+    quality: Option<QualityReport>,
+    /// Relief-map resolution the package was built at.
+    resolution: u32,
+    /// How `bake.resolution = "auto"` chose it.
+    auto_resolution: Option<AutoReport>,
+}
+
+/// The `auto` resolution search of one asset.
+#[derive(Clone, Debug, Serialize)]
+struct AutoReport {
+    target_px: u32,
+    /// Whether the chosen resolution's PLT reaches the target (false: the largest allowed).
+    reached: bool,
+    /// Every resolution measured, with its PLT in pixels, in the order tried.
+    tried: Vec<(u32, f64)>,
+}
+
+/// The measured quality of an asset's ORI (the rows of the paper's Table 1).
+#[derive(Serialize)]
+struct QualityReport {
+    /// Coverage error over the 320 evaluation directions, percent of s0 x s0.
+    coverage_error_min_percent: f64,
+    coverage_error_max_percent: f64,
+    coverage_error_avg_percent: f64,
+    impostors_per_view: f64,
+    /// Directions drawing 0, 1, 2, ... impostors.
+    views_by_impostor_count: Vec<u32>,
+    s0: u32,
+    /// GC(s0): the largest coverage error, in pixels.
+    gc: u32,
+    /// s0^2 / GC(s0); when GC is 0 this is the lower bound s0^2 and `plt_is_lower_bound` is set.
+    plt: f64,
+    plt_is_lower_bound: bool,
+    /// Power of two nearest to 2 x PLT (the paper's advice).
+    recommended_resolution: u32,
+}
+
+/// Read the selection and PLT outputs of an asset into its report entry.
+fn quality(build: &ori_graph::Build<'_>, jobs: &AssetJobs) -> Result<QualityReport, String> {
+    let selection = ori_select::Selection::decode(
+        &build
+            .read_output(jobs.select, stages::SELECTION)
+            .map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
+    let plt = ori_plt::Plt::decode(
+        &build
+            .read_output(jobs.plt, stages::PLT)
+            .map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
+    let stats = selection.stats();
+    Ok(QualityReport {
+        coverage_error_min_percent: stats.min_percent,
+        coverage_error_max_percent: stats.max_percent,
+        coverage_error_avg_percent: stats.avg_percent,
+        impostors_per_view: stats.avg_impostors,
+        views_by_impostor_count: stats.views_by_count,
+        s0: plt.s0,
+        gc: plt.gc,
+        plt: plt.pixels(),
+        plt_is_lower_bound: matches!(plt.value(), ori_plt::PltValue::AtLeast(_)),
+        recommended_resolution: plt.recommended_resolution(),
+    })
 }
 
 /// `report.json`: what was built. Timings live in the summary, which is printed, so the
@@ -194,18 +359,49 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         path: cache_dir.clone(),
         message: format!("cannot create the cache folder: {e}"),
     })?;
-    let (graph, jobs) = plan(&config, &assets);
-    let progress = Progress::new(&graph, options.progress, options.explain || options.dry_run);
     let run_options = RunOptions {
         threads: options.threads,
         dry_run: options.dry_run,
     };
+    let mut params: Vec<config::StageParams> =
+        assets.iter().map(|a| config.params_for(&a.name)).collect();
+    let mut stages = Vec::new();
+    let mut sources_hashed = 0;
+    // `auto` resolutions are measured first (a dry run plans the first guess only).
+    let auto = if options.dry_run {
+        vec![None; assets.len()]
+    } else {
+        let mut trial_run = |graph: &Graph, read: &mut ReadBuild<'_>| {
+            let progress =
+                Progress::new(graph, options.progress, options.explain || options.dry_run);
+            let build = ori_graph::run(graph, &cache, &run_options, &progress);
+            progress.finish();
+            add_summary(&mut stages, &build);
+            sources_hashed += build.sources_rehashed();
+            read(&build);
+        };
+        choose_resolutions(&assets, &mut params, &mut trial_run)
+    };
+    let planned: Vec<PlannedAsset> = assets
+        .iter()
+        .zip(&params)
+        .map(|(asset, params)| PlannedAsset {
+            asset: asset.clone(),
+            params: params.clone(),
+            measure_only: false,
+        })
+        .collect();
+    let (graph, jobs) = plan(&planned);
+    let progress = Progress::new(&graph, options.progress, options.explain || options.dry_run);
     let build = ori_graph::run(&graph, &cache, &run_options, &progress);
     progress.finish();
+    add_summary(&mut stages, &build);
+    sources_hashed += build.sources_rehashed();
 
     let mut report = Report { assets: Vec::new() };
     let mut unreadable_outputs = 0;
-    for j in &jobs {
+    let mut packages = Vec::new();
+    for (index, j) in jobs.iter().enumerate() {
         // Built now or reused: the same bytes either way, so the same status.
         let mut status = "ok";
         let mut error = None;
@@ -239,7 +435,29 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
                 .outputs
                 .get(stages::MAPS)
                 .map(|b| b.hash.to_hex()),
+            quality: None,
+            resolution: params[index].bake.resolution,
+            auto_resolution: auto[index].clone(),
         };
+        if status == "ok" {
+            let outputs = quality(&build, j).and_then(|q| {
+                let bytes = build
+                    .read_output(j.package, package::PACKAGE)
+                    .map_err(|e| e.to_string())?;
+                Ok((q, bytes))
+            });
+            match outputs {
+                Ok((q, bytes)) => {
+                    entry.quality = Some(q);
+                    packages.push((j.asset.name.clone(), bytes));
+                }
+                Err(e) => {
+                    unreadable_outputs += 1;
+                    entry.status = "failed";
+                    entry.error = Some(e);
+                }
+            }
+        }
         if let Some(dir) = options.dump_maps.as_ref().filter(|_| status == "ok")
             && let Err(e) = dump_maps(&build, j, dir)
         {
@@ -265,6 +483,13 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         .count()
         + unreadable_outputs;
 
+    if !options.dry_run {
+        release::write(&out_dir, &packages)
+            .map_err(|(path, message)| PipelineError::Output { path, message })?;
+        if let Some(dir) = &options.explode {
+            explode(dir, &packages)?;
+        }
+    }
     let report_path = if options.dry_run {
         None
     } else {
@@ -277,28 +502,127 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         Some(path)
     };
 
-    let stages = build
-        .summary()
-        .into_iter()
-        .map(|s| StageLine {
-            stage: s.stage.to_string(),
-            ran: s.ran,
-            reused: s.reused,
-            would_run: s.would_run,
-            failed: s.failed,
-            skipped: s.skipped,
-            seconds: secs(s.time),
-        })
-        .collect();
     Ok(BuildSummary {
         assets: assets.len(),
         stages,
         failed_jobs,
         wall_seconds: secs(start.elapsed()),
-        sources_hashed: build.sources_rehashed(),
+        sources_hashed,
         dry_run: options.dry_run,
         report: report_path,
     })
+}
+
+/// Add a run's per-stage counts and times to `lines` (by stage name, first-seen order).
+fn add_summary(lines: &mut Vec<StageLine>, build: &ori_graph::Build<'_>) {
+    for s in build.summary() {
+        let i = match lines.iter().position(|l| l.stage == s.stage) {
+            Some(i) => i,
+            None => {
+                lines.push(StageLine {
+                    stage: s.stage.to_string(),
+                    ran: 0,
+                    reused: 0,
+                    would_run: 0,
+                    failed: 0,
+                    skipped: 0,
+                    seconds: 0.0,
+                });
+                lines.len() - 1
+            }
+        };
+        let l = &mut lines[i];
+        l.ran += s.ran;
+        l.reused += s.reused;
+        l.would_run += s.would_run;
+        l.failed += s.failed;
+        l.skipped += s.skipped;
+        l.seconds += secs(s.time);
+    }
+}
+
+/// Reads what it needs from a finished trial run.
+type ReadBuild<'a> = dyn FnMut(&ori_graph::Build<'_>) + 'a;
+
+/// Decide every `bake.resolution = "auto"`: measure the PLT at the resolutions
+/// `ori_plt::auto_resolution` asks for (each through the graph, so each is cached), a round
+/// of trial runs at a time over the assets still searching, until each is decided; then set
+/// the chosen resolution in `params`. An asset whose trial fails keeps the default
+/// resolution, and the final run reports its failure.
+fn choose_resolutions(
+    assets: &[Asset],
+    params: &mut [config::StageParams],
+    run: &mut dyn FnMut(&Graph, &mut ReadBuild<'_>),
+) -> Vec<Option<AutoReport>> {
+    let mut tried: Vec<Vec<(u32, ori_plt::Plt)>> = vec![Vec::new(); assets.len()];
+    let mut searching: Vec<bool> = params.iter().map(|p| p.auto_resolution).collect();
+    let mut reports = vec![None; assets.len()];
+    loop {
+        let mut batch = Vec::new();
+        for i in 0..assets.len() {
+            if !searching[i] {
+                continue;
+            }
+            match ori_plt::auto_resolution(&params[i].plt, &tried[i]) {
+                ori_plt::AutoStep::Try(r) => batch.push((i, r)),
+                ori_plt::AutoStep::Done {
+                    resolution,
+                    reached,
+                } => {
+                    searching[i] = false;
+                    params[i].bake.resolution = resolution;
+                    reports[i] = Some(AutoReport {
+                        target_px: params[i].plt.target_px,
+                        reached,
+                        tried: tried[i].iter().map(|(r, p)| (*r, p.pixels())).collect(),
+                    });
+                }
+            }
+        }
+        if batch.is_empty() {
+            return reports;
+        }
+        let planned: Vec<PlannedAsset> = batch
+            .iter()
+            .map(|&(i, r)| {
+                let mut p = params[i].clone();
+                p.bake.resolution = r;
+                PlannedAsset {
+                    asset: assets[i].clone(),
+                    params: p,
+                    measure_only: true,
+                }
+            })
+            .collect();
+        let (graph, jobs) = plan(&planned);
+        run(&graph, &mut |build| {
+            for (&(i, r), j) in batch.iter().zip(&jobs) {
+                let plt = build
+                    .read_output(j.plt, stages::PLT)
+                    .ok()
+                    .and_then(|b| ori_plt::Plt::decode(&b).ok());
+                match plt {
+                    Some(plt) => tried[i].push((r, plt)),
+                    None => searching[i] = false,
+                }
+            }
+        });
+    }
+}
+
+/// Write every package as a folder `<dir>/<package path without .ori>/`.
+fn explode(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<(), PipelineError> {
+    for (name, bytes) in packages {
+        let rel = release::package_path(name);
+        let folder = dir.join(rel.trim_end_matches(".ori"));
+        let fail = |message: String| PipelineError::Output {
+            path: folder.clone(),
+            message,
+        };
+        let package = ori_package::read(bytes).map_err(|e| fail(e.to_string()))?;
+        ori_package::explode(&package, &folder).map_err(|e| fail(e.to_string()))?;
+    }
+    Ok(())
 }
 
 /// Write `<dir>/<asset>/map-NN-{depth,normal,albedo}.png` for every relief map of an asset.

@@ -10,7 +10,9 @@ use ori_views::{ViewParams, ViewPlan};
 pub const VIEWS: &str = "views";
 pub const MAPS: &str = "maps";
 
-fn params<T: serde::de::DeserializeOwned>(ctx: &JobContext<'_>) -> Result<T, StageError> {
+pub(crate) fn params<T: serde::de::DeserializeOwned>(
+    ctx: &JobContext<'_>,
+) -> Result<T, StageError> {
     serde_json::from_value(ctx.params().clone())
         .map_err(|e| StageError::new(format!("bad parameters: {e}")))
 }
@@ -69,4 +71,54 @@ impl Stage for BakeStage {
 /// Decode a bake output (for dumps and reports).
 pub fn decode_maps(bytes: &[u8]) -> Result<ReliefSet, String> {
     ReliefSet::decode(bytes).map_err(|e| e.to_string())
+}
+
+/// Output names of the selection and PLT stages.
+pub const SELECTION: &str = "selection";
+pub const PLT: &str = "plt";
+
+/// Chooses, for each of the 320 evaluation directions, the impostors to draw (`[select]`).
+pub struct SelectStage;
+
+impl Stage for SelectStage {
+    fn name(&self) -> &'static str {
+        "select"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let params: ori_select::SelectParams = params(ctx)?;
+        let mesh = mesh(ctx)?;
+        let set = ReliefSet::decode(&ctx.input(MAPS)?)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let selection = ori_select::select(&mesh, &set, &params)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        ctx.output(SELECTION, selection.encode());
+        Ok(())
+    }
+}
+
+/// Measures GC(s0) and the projected length threshold from the selection table.
+pub struct PltStage;
+
+impl Stage for PltStage {
+    fn name(&self) -> &'static str {
+        "plt"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let selection = ori_select::Selection::decode(&ctx.input(SELECTION)?)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let missed: Vec<u32> = selection.entries.iter().map(|e| e.missed).collect();
+        let plt = ori_plt::estimate(selection.s0, &missed);
+        ctx.output(PLT, plt.encode());
+        Ok(())
+    }
 }

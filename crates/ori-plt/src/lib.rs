@@ -166,7 +166,7 @@ impl Default for PltParams {
         PltParams {
             target_px: 256,
             min_resolution: 32,
-            max_resolution: 4096,
+            max_resolution: 2048,
         }
     }
 }

@@ -1,0 +1,209 @@
+//! The release folder: one `.ori` package per built asset and `release.json`, which lists
+//! every package with its content hash, so that `cargo xtask verify` can check a copy.
+//!
+//! Nothing here depends on time, paths outside the folder or thread count: the same packages
+//! give the same folder, byte for byte.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use walkdir::WalkDir;
+
+/// The name of the release index in the output folder.
+pub const RELEASE_JSON: &str = "release.json";
+
+/// `release.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Release {
+    /// Layout version of this file.
+    pub release_version: u32,
+    /// The tool that wrote the packages (`ori-pipeline <version>`).
+    pub tool: String,
+    /// Every package, sorted by asset name.
+    pub assets: Vec<ReleaseEntry>,
+}
+
+/// One package of a release.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReleaseEntry {
+    /// The asset's name (its path under the assets root).
+    pub name: String,
+    /// The package file, relative to the release folder, `/` separators.
+    pub package: String,
+    /// blake3 of the package file, lowercase hex.
+    pub blake3: String,
+    /// Size of the package file.
+    pub bytes: u64,
+    /// Projected length threshold in pixels (a lower bound when `plt_at_least`).
+    pub plt: f64,
+    pub plt_at_least: bool,
+    /// Bytes of texture data in the package.
+    pub texture_bytes: u64,
+}
+
+/// The package file of an asset: its name with the extension replaced by `.ori`.
+pub fn package_path(asset: &str) -> String {
+    let (dir, file) = asset.rsplit_once('/').map_or(("", asset), |(d, f)| (d, f));
+    let stem = file.rsplit_once('.').map_or(file, |(stem, _)| stem);
+    if dir.is_empty() {
+        format!("{stem}.ori")
+    } else {
+        format!("{dir}/{stem}.ori")
+    }
+}
+
+/// The release entry of a package, checking the package as a reader would.
+pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
+    let package = ori_package::read(bytes).map_err(|e| format!("invalid package: {e}"))?;
+    let plt = &package.manifest.plt;
+    Ok(ReleaseEntry {
+        name: name.to_string(),
+        package: package_path(name),
+        blake3: blake3::hash(bytes).to_hex().to_string(),
+        bytes: bytes.len() as u64,
+        plt: plt.pixels,
+        plt_at_least: plt.at_least,
+        texture_bytes: package.texture_bytes(),
+    })
+}
+
+/// Write `packages` (asset name, package bytes; sorted by name) and `release.json` into
+/// `dir`. Packages first, the index last, so the index never names a file not yet written;
+/// `.ori` files of earlier builds that are not part of this release are removed, so the
+/// folder is the same as a clean build's. A package whose bytes are already there is not
+/// rewritten.
+pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Release, (PathBuf, String)> {
+    let mut assets = Vec::new();
+    let mut seen = BTreeSet::new();
+    for (name, bytes) in packages {
+        let e = entry(name, bytes).map_err(|m| (PathBuf::from(name), m))?;
+        if !seen.insert(e.package.clone()) {
+            return Err((
+                dir.join(&e.package),
+                format!("two assets would write this package (the second is {name}); rename one"),
+            ));
+        }
+        let path = dir.join(&e.package);
+        if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
+            ori_graph::write_atomic(&path, bytes)
+                .map_err(|err| (path.clone(), format!("cannot write: {err}")))?;
+        }
+        assets.push(e);
+    }
+    for stale in ori_files(dir) {
+        if !seen.contains(&stale) {
+            let path = dir.join(&stale);
+            std::fs::remove_file(&path)
+                .map_err(|err| (path, format!("cannot remove a stale package: {err}")))?;
+        }
+    }
+    let release = Release {
+        release_version: 1,
+        tool: crate::package::tool(),
+        assets,
+    };
+    let path = dir.join(RELEASE_JSON);
+    let mut json = serde_json::to_vec_pretty(&release).expect("release serialises");
+    json.push(b'\n');
+    ori_graph::write_atomic(&path, &json).map_err(|err| (path, format!("cannot write: {err}")))?;
+    Ok(release)
+}
+
+/// `.ori` files under `dir`, relative, `/` separators, sorted.
+fn ori_files(dir: &Path) -> BTreeSet<String> {
+    WalkDir::new(dir)
+        .sort_by_file_name()
+        .into_iter()
+        .filter_map(Result::ok)
+        .filter(|e| e.file_type().is_file() && e.path().extension().is_some_and(|x| x == "ori"))
+        .filter_map(|e| {
+            let rel = e.path().strip_prefix(dir).ok()?;
+            let parts: Vec<_> = rel.iter().map(|c| c.to_string_lossy()).collect();
+            Some(parts.join("/"))
+        })
+        .collect()
+}
+
+/// Check a release folder against its `release.json`: every listed package exists, has the
+/// listed size and hash, reads back valid, and has the listed PLT and texture bytes; no
+/// unlisted package lies beside them. Returns the number of packages checked, or every
+/// mismatch found (each naming its file).
+pub fn verify(dir: &Path) -> Result<usize, Vec<String>> {
+    let index = dir.join(RELEASE_JSON);
+    let release: Release = match std::fs::read(&index) {
+        Err(e) => return Err(vec![format!("{}: cannot read: {e}", index.display())]),
+        Ok(bytes) => serde_json::from_slice(&bytes)
+            .map_err(|e| vec![format!("{}: not a release index: {e}", index.display())])?,
+    };
+    let mut problems = Vec::new();
+    let mut listed = BTreeSet::new();
+    for want in &release.assets {
+        let path = dir.join(&want.package);
+        listed.insert(want.package.clone());
+        let bytes = match std::fs::read(&path) {
+            Ok(b) => b,
+            Err(e) => {
+                problems.push(format!("{}: cannot read: {e}", path.display()));
+                continue;
+            }
+        };
+        let got = match entry(&want.name, &bytes) {
+            Ok(got) => got,
+            Err(e) => {
+                problems.push(format!("{}: {e}", path.display()));
+                continue;
+            }
+        };
+        let checks = [
+            ("size", want.bytes.to_string(), got.bytes.to_string()),
+            ("blake3", want.blake3.clone(), got.blake3.clone()),
+            ("package name", want.package.clone(), got.package.clone()),
+            ("PLT", want.plt.to_string(), got.plt.to_string()),
+            (
+                "PLT bound",
+                want.plt_at_least.to_string(),
+                got.plt_at_least.to_string(),
+            ),
+            (
+                "texture bytes",
+                want.texture_bytes.to_string(),
+                got.texture_bytes.to_string(),
+            ),
+        ];
+        for (what, w, g) in checks {
+            if w != g {
+                problems.push(format!(
+                    "{}: {what} is {g}, release.json says {w}",
+                    path.display()
+                ));
+            }
+        }
+    }
+    for extra in ori_files(dir).difference(&listed) {
+        problems.push(format!(
+            "{}: not listed in release.json",
+            dir.join(extra).display()
+        ));
+    }
+    if problems.is_empty() {
+        Ok(release.assets.len())
+    } else {
+        Err(problems)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::package_path;
+
+    #[test]
+    fn package_paths_replace_the_extension() {
+        assert_eq!(package_path("bunny/bunny.obj"), "bunny/bunny.ori");
+        assert_eq!(package_path("a.b/c.glb"), "a.b/c.ori");
+        assert_eq!(package_path("noext"), "noext.ori");
+        assert_eq!(package_path("x/y.tar.gz"), "x/y.tar.ori");
+    }
+}

@@ -1,0 +1,116 @@
+//! What the end-to-end tests share: temporary projects built with the `xtask` binary, and
+//! readers for its summary and report.
+#![allow(dead_code)] // each test file uses a part
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+pub const EXE: &str = env!("CARGO_BIN_EXE_xtask");
+
+pub fn samples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../samples")
+}
+
+pub fn shared_models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
+}
+
+/// Selection measured on 64 x 64 views instead of 256 x 256: sixteen times less tracing, the
+/// same stages and artifacts. (Quality at the defaults is tested in ori-select.)
+pub const FAST: &str = "[select]\ns0 = 64\n";
+
+/// A temporary project: `assets/` with copies of some samples, a `pipeline.toml`, and the
+/// cache and output inside.
+pub struct Project {
+    pub dir: tempfile::TempDir,
+}
+
+impl Project {
+    pub fn new(sample_folders: &[&str]) -> Project {
+        let dir = tempfile::tempdir().unwrap();
+        for folder in sample_folders {
+            copy_dir(
+                &samples().join(folder),
+                &dir.path().join("assets").join(folder),
+            );
+        }
+        let p = Project { dir };
+        p.config("");
+        p
+    }
+
+    pub fn path(&self, rel: &str) -> PathBuf {
+        self.dir.path().join(rel)
+    }
+
+    pub fn config(&self, extra: &str) {
+        fs::write(
+            self.path("pipeline.toml"),
+            format!("[assets]\nroot = \"assets\"\n[output]\ndir = \"out\"\n[cache]\ndir = \"cache\"\n{FAST}{extra}"),
+        )
+        .unwrap();
+    }
+
+    pub fn build(&self, args: &[&str]) -> Output {
+        Command::new(EXE)
+            .arg("build-assets")
+            .arg("--config")
+            .arg(self.path("pipeline.toml"))
+            .args(args)
+            .env("CI", "1")
+            .output()
+            .unwrap()
+    }
+
+    pub fn report(&self) -> Value {
+        serde_json::from_slice(&fs::read(self.path("out/report.json")).unwrap()).unwrap()
+    }
+}
+
+pub fn copy_dir(from: &Path, to: &Path) {
+    fs::create_dir_all(to).unwrap();
+    for entry in fs::read_dir(from).unwrap() {
+        let path = entry.unwrap().path();
+        fs::copy(&path, to.join(path.file_name().unwrap())).unwrap();
+    }
+}
+
+pub fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// The `ran` column of the summary line for `stage`.
+pub fn ran(out: &Output, stage: &str) -> usize {
+    let t = text(out);
+    t.lines()
+        .find(|l| l.split_whitespace().next() == Some(stage))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
+}
+
+/// The report as text, so a mismatch prints readably.
+pub fn report_text(p: &Project, out: &str) -> String {
+    fs::read_to_string(p.path(out).join("report.json")).unwrap()
+}
+
+pub fn ok(out: &Output) -> String {
+    assert!(out.status.success(), "build failed:\n{}", text(out));
+    text(out)
+}
+
+pub fn asset<'a>(report: &'a Value, name: &str) -> &'a Value {
+    report["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["name"] == name)
+        .unwrap_or_else(|| panic!("{name} not in report: {report}"))
+}
