@@ -26,8 +26,8 @@ fn cold_build_then_reuse_in_a_new_process() {
         true
     );
 
-    // A second process computes the same keys: nothing runs, same report bytes.
-    let before = report_text(&p, "out");
+    // A second process computes the same keys: nothing runs, same release bytes.
+    let before = fs::read(p.path("out/release.json")).unwrap();
     let second = p.build(&[]);
     let t = ok(&second);
     assert_eq!(ran(&second, "ingest"), 0, "{t}");
@@ -35,7 +35,14 @@ fn cold_build_then_reuse_in_a_new_process() {
         t.contains("[ingest] bunny/bunny_npm_lowres.obj: reused"),
         "{t}"
     );
-    assert_eq!(report_text(&p, "out"), before);
+    assert_eq!(fs::read(p.path("out/release.json")).unwrap(), before);
+    assert!(
+        p.report()["assets"][0]["jobs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|j| j["status"] == "reused")
+    );
 }
 
 #[test]

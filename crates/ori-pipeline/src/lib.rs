@@ -262,6 +262,17 @@ struct AssetReport {
     resolution: u32,
     /// How `bake.resolution = "auto"` chose it.
     auto_resolution: Option<AutoReport>,
+    /// This build's jobs of the asset, upstream first: what happened and how long it took.
+    jobs: Vec<JobReport>,
+}
+
+/// One job of an asset in this build.
+#[derive(Serialize)]
+struct JobReport {
+    stage: &'static str,
+    /// "ran", "reused", "would run", "failed" or "skipped".
+    status: &'static str,
+    seconds: f64,
 }
 
 /// The `auto` resolution search of one asset.
@@ -323,8 +334,9 @@ fn quality(build: &ori_graph::Build<'_>, jobs: &AssetJobs) -> Result<QualityRepo
     })
 }
 
-/// `report.json`: what was built. Timings live in the summary, which is printed, so the
-/// report bytes depend only on the inputs.
+/// `report.json`: what this build did and measured, per asset. It records which jobs ran and
+/// their times, so unlike the packages and `release.json` it is a log of one build, not part
+/// of the reproducible release.
 #[derive(Serialize)]
 struct Report {
     assets: Vec<AssetReport>,
@@ -438,6 +450,24 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
             quality: None,
             resolution: params[index].bake.resolution,
             auto_resolution: auto[index].clone(),
+            jobs: j
+                .all()
+                .iter()
+                .map(|&id| {
+                    let r = build.result(id);
+                    JobReport {
+                        stage: graph.job(id).stage.name(),
+                        status: match r.outcome {
+                            Outcome::Reused => "reused",
+                            Outcome::Ran(_) => "ran",
+                            Outcome::WouldRun(_) => "would run",
+                            Outcome::Failed(_) => "failed",
+                            Outcome::Skipped => "skipped",
+                        },
+                        seconds: secs(r.duration),
+                    }
+                })
+                .collect(),
         };
         if status == "ok" {
             let outputs = quality(&build, j).and_then(|q| {
