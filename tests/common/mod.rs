@@ -54,7 +54,14 @@ impl Project {
         .unwrap();
     }
 
+    /// Build without the HTML report (`tests/report.rs` tests it), to keep tests quick.
     pub fn build(&self, args: &[&str]) -> Output {
+        let mut all = vec!["--no-report"];
+        all.extend_from_slice(args);
+        self.build_with_report(&all)
+    }
+
+    pub fn build_with_report(&self, args: &[&str]) -> Output {
         Command::new(EXE)
             .arg("build-assets")
             .arg("--config")

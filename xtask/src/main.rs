@@ -35,6 +35,17 @@ enum Command {
     CompressTexture(compress::Args),
     /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
     EvalTable(eval_table::Args),
+    /// Write the HTML build report of an output folder again, without rebuilding.
+    Report {
+        /// The output folder (default: `[output] dir` of the configuration).
+        dir: Option<PathBuf>,
+        /// Pipeline configuration (gives the assets folder, for the reference pictures).
+        #[arg(long, default_value = "pipeline.toml")]
+        config: PathBuf,
+        /// Assets folder (default: `[assets] root` of the configuration).
+        #[arg(long)]
+        assets: Option<PathBuf>,
+    },
     /// Check a release folder against its release.json: hashes, sizes, package validity.
     Verify {
         /// The release folder (holding release.json).
@@ -75,6 +86,9 @@ struct BuildArgs {
     /// previews) into DIR/<asset>/.
     #[arg(long, value_name = "DIR")]
     explode: Option<PathBuf>,
+    /// Do not write the HTML report (report/index.html) after the build.
+    #[arg(long)]
+    no_report: bool,
 }
 
 fn main() -> ExitCode {
@@ -85,6 +99,11 @@ fn main() -> ExitCode {
         Command::CompressTexture(args) => compress::run(args),
         Command::EvalTable(args) => eval_table::run(args),
         Command::Verify { dir } => verify(&dir),
+        Command::Report {
+            dir,
+            config,
+            assets,
+        } => report(dir, &config, assets),
     }
 }
 
@@ -109,12 +128,44 @@ fn verify(dir: &std::path::Path) -> ExitCode {
     }
 }
 
+/// The output and assets folders a configuration names, unless given.
+fn folders(
+    config: &std::path::Path,
+    out: Option<PathBuf>,
+    assets: Option<PathBuf>,
+) -> Result<(PathBuf, PathBuf), String> {
+    let c = ori_pipeline::Config::load(config).map_err(|e| e.to_string())?;
+    Ok((
+        out.unwrap_or_else(|| c.resolve(&c.output.dir)),
+        assets.unwrap_or_else(|| c.resolve(&c.assets.root)),
+    ))
+}
+
+/// Exit status 0: report written; 1: it could not be.
+fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf>) -> ExitCode {
+    let written = folders(config, dir, assets)
+        .and_then(|(out, assets)| ori_report::write_report(&out, &assets));
+    match written {
+        Ok(index) => {
+            println!("report: {}", index.display());
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
 fn build(args: BuildArgs) -> ExitCode {
     let progress = if args.quiet {
         ProgressMode::Quiet
     } else {
         ProgressMode::detect()
     };
+    let write_report = !(args.no_report || args.dry_run);
+    let (config_path, out_arg, assets_arg) =
+        (args.config.clone(), args.out.clone(), args.assets.clone());
     let options = BuildOptions {
         config: args.config,
         assets: args.assets,
@@ -130,6 +181,22 @@ fn build(args: BuildArgs) -> ExitCode {
     match build_assets(&options) {
         Ok(summary) => {
             println!("{}", format_summary(&summary));
+            if write_report {
+                let started = std::time::Instant::now();
+                match folders(&config_path, out_arg, assets_arg)
+                    .and_then(|(out, assets)| ori_report::write_report(&out, &assets))
+                {
+                    Ok(index) => println!(
+                        "html report: {} ({:.2} s)",
+                        index.display(),
+                        started.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => {
+                        eprintln!("error: cannot write the html report: {e}");
+                        return ExitCode::from(1);
+                    }
+                }
+            }
             if summary.failed_jobs > 0 {
                 eprintln!("error: {} job(s) failed (see above)", summary.failed_jobs);
                 ExitCode::from(1)

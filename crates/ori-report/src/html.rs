@@ -1,0 +1,324 @@
+//! The report page: one static HTML file, pictures beside it.
+
+use std::fmt::Write;
+
+use crate::{AssetSummary, ReportSummary, count_colour, error_colour};
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn opt(v: Option<f64>, digits: usize) -> (String, String) {
+    match v {
+        Some(v) => (format!("{v:.digits$}"), format!("{v}")),
+        None => ("–".into(), "-1".into()),
+    }
+}
+
+fn rgb(c: [u8; 3]) -> String {
+    format!("rgb({},{},{})", c[0], c[1], c[2])
+}
+
+const STYLE: &str = "
+body { font: 14px/1.45 system-ui, sans-serif; margin: 24px; color: #222; background: #fafafa; }
+h1 { margin: 0 0 4px; } h2 { margin: 32px 0 8px; border-bottom: 1px solid #ccc; }
+h3 { margin: 16px 0 6px; font-size: 15px; }
+.muted { color: #666; }
+.scroll { overflow-x: auto; max-width: 100%; }
+table.summary { border-collapse: collapse; background: white; font-variant-numeric: tabular-nums; }
+table.summary th, table.summary td { border: 1px solid #ddd; padding: 3px 6px; font-size: 13px; text-align: right; white-space: nowrap; }
+table.summary th { background: #eee; cursor: pointer; user-select: none; }
+table.summary th:hover { background: #e0e0ff; }
+table.summary td:first-child, table.summary th:first-child { text-align: left; }
+tr.failed td { background: #fee; }
+.grid { display: grid; grid-template-columns: repeat(3, 258px) 1fr; gap: 6px; align-items: start; }
+.grid img, .pics img { border: 1px solid #ccc; background: white; image-rendering: pixelated; }
+.grid .label { align-self: center; color: #444; }
+.pics { display: flex; flex-wrap: wrap; gap: 16px; align-items: flex-start; }
+figure { margin: 0; } figcaption { color: #555; font-size: 12px; max-width: 380px; }
+.legend span { display: inline-block; width: 18px; height: 12px; margin-right: 2px; vertical-align: middle; border: 1px solid #999; }
+.note { background: #fff6d5; border: 1px solid #e6d27a; padding: 6px 10px; display: inline-block; }
+.error { background: #fee; border: 1px solid #e99; padding: 6px 10px; display: inline-block; white-space: pre-wrap; }
+";
+
+/// Sorts the summary by a column (numbers by `data-v`), and records for tests whether every
+/// picture loaded and whether any script error happened.
+const SCRIPT: &str = "
+var errors = 0;
+window.addEventListener('error', function () { errors++; });
+document.querySelectorAll('table.summary th').forEach(function (th, col) {
+  th.addEventListener('click', function () {
+    var body = th.closest('table').tBodies[0];
+    var rows = Array.from(body.rows);
+    var up = th.dataset.dir !== 'up';
+    th.dataset.dir = up ? 'up' : 'down';
+    rows.sort(function (a, b) {
+      var x = a.cells[col].dataset.v, y = b.cells[col].dataset.v;
+      var r = (x !== undefined && y !== undefined) ? (parseFloat(x) - parseFloat(y))
+        : a.cells[col].textContent.localeCompare(b.cells[col].textContent);
+      return up ? r : -r;
+    });
+    rows.forEach(function (r) { body.appendChild(r); });
+  });
+});
+window.addEventListener('load', function () {
+  var imgs = Array.from(document.images);
+  var failed = imgs.filter(function (i) { return !i.complete || i.naturalWidth === 0; }).length;
+  document.body.dataset.check = 'images=' + imgs.length + ' failed=' + failed + ' errors=' + errors;
+});
+";
+
+pub fn page(report: &ReportSummary) -> String {
+    let mut h = String::new();
+    let n = report.assets.len();
+    let failed = report.assets.iter().filter(|a| a.status != "ok").count();
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
+         <title>ORI build report</title><style>{STYLE}</style></head><body>\n\
+         <h1>ORI build report</h1>\n<p class=\"muted\">{n} asset(s), {failed} failed. \
+         Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, over the \
+         320 evaluation directions. PLT: the largest on-screen size (pixels) the ORI may be \
+         drawn at. p_dif: mean colour error (0-765) over the four comparison views. \
+         Click a column to sort.</p>\n"
+    );
+    summary_table(&mut h, report);
+    for (i, a) in report.assets.iter().enumerate() {
+        asset_section(&mut h, i, a);
+    }
+    let _ = writeln!(h, "<script>{SCRIPT}</script>\n</body></html>");
+    h
+}
+
+fn summary_table(h: &mut String, report: &ReportSummary) {
+    let stages: Vec<String> = {
+        let mut s: Vec<String> = Vec::new();
+        for a in &report.assets {
+            for (stage, _, _) in &a.jobs {
+                if !s.contains(stage) {
+                    s.push(stage.clone());
+                }
+            }
+        }
+        s
+    };
+    h.push_str("<div class=\"scroll\"><table class=\"summary\"><thead><tr>");
+    for c in [
+        "asset",
+        "faces",
+        "impostors",
+        "resolution",
+        "package bytes",
+        "texture bytes",
+        "PLT",
+        "cov. min %",
+        "cov. max %",
+        "cov. avg %",
+        "impostors / view",
+        "p_dif",
+    ] {
+        let _ = write!(h, "<th>{c}</th>");
+    }
+    for s in &stages {
+        let _ = write!(h, "<th>{} s</th>", esc(s));
+    }
+    h.push_str("<th>built</th></tr></thead><tbody>\n");
+    for (i, a) in report.assets.iter().enumerate() {
+        let class = if a.status == "ok" {
+            ""
+        } else {
+            " class=\"failed\""
+        };
+        let _ = write!(
+            h,
+            "<tr{class}><td><a href=\"#asset{i}\">{}</a></td>",
+            esc(&a.name)
+        );
+        let int = |v: Option<u64>| opt(v.map(|v| v as f64), 0);
+        let cells = [
+            int(a.faces),
+            int(a.impostors.map(|v| v as u64)),
+            int(a.resolution.map(u64::from)),
+            int(a.package_bytes),
+            int(a.texture_bytes),
+            opt(a.plt, 1),
+            opt(a.coverage_error_min_percent, 3),
+            opt(a.coverage_error_max_percent, 3),
+            opt(a.coverage_error_avg_percent, 3),
+            opt(a.impostors_per_view, 2),
+            opt(a.p_dif, 1),
+        ];
+        for (text, v) in cells {
+            let _ = write!(h, "<td data-v=\"{v}\">{text}</td>");
+        }
+        for s in &stages {
+            match a.jobs.iter().find(|j| &j.0 == s) {
+                Some((_, status, secs)) if status == "ran" => {
+                    let _ = write!(h, "<td data-v=\"{secs}\">{secs:.2}</td>");
+                }
+                Some((_, status, _)) => {
+                    let _ = write!(h, "<td data-v=\"0\" class=\"muted\">{}</td>", esc(status));
+                }
+                None => h.push_str("<td data-v=\"-1\">–</td>"),
+            }
+        }
+        let ran = a.jobs.iter().filter(|j| j.1 == "ran").count();
+        let built = if a.status != "ok" {
+            "failed".to_string()
+        } else if ran == 0 {
+            "cached".to_string()
+        } else {
+            format!("rebuilt ({ran} of {} jobs)", a.jobs.len())
+        };
+        let _ = writeln!(h, "<td>{built}</td></tr>");
+    }
+    h.push_str("</tbody></table></div>\n");
+}
+
+fn img(h: &mut String, a: &AssetSummary, role: &str, alt: &str) {
+    if let Some((_, file)) = a.pictures.iter().find(|p| p.0 == role) {
+        let _ = write!(h, "<img src=\"{}\" alt=\"{}\">", esc(file), esc(alt));
+    }
+}
+
+fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
+    let _ = writeln!(h, "<h2 id=\"asset{i}\">{}</h2>", esc(&a.name));
+    if let Some(e) = &a.error {
+        let _ = writeln!(h, "<p class=\"error\">{}</p>", esc(e));
+    }
+    for note in &a.notes {
+        let _ = writeln!(h, "<p class=\"note\">{}</p>", esc(note));
+    }
+    if a.pictures.iter().any(|p| p.0.ends_with(" reference")) {
+        h.push_str(
+            "<h3>Reference mesh, ORI, difference</h3>\n<p class=\"muted\">Shaded with the \
+             evaluator's light. Difference: red = the mesh covers, the ORI misses; blue = the \
+             ORI covers, the mesh does not; grey = both.</p>\n<div class=\"grid\">",
+        );
+        for view in ["front", "side", "top", "oblique"] {
+            img(h, a, &format!("{view} reference"), &format!("{view}: mesh"));
+            img(h, a, &format!("{view} ori"), &format!("{view}: ORI"));
+            img(
+                h,
+                a,
+                &format!("{view} error"),
+                &format!("{view}: difference"),
+            );
+            let _ = write!(h, "<div class=\"label\">{view}</div>");
+        }
+        h.push_str("</div>\n");
+    }
+    h.push_str("<div class=\"pics\">");
+    if let Some((role, _)) = a.pictures.iter().find(|p| p.0.starts_with("worst view")) {
+        let role = role.clone();
+        h.push_str("<figure>");
+        img(h, a, &role, "worst view");
+        let _ = write!(
+            h,
+            "<figcaption>The worst of the 320 directions ({}), missed pixels in red \
+             (the paper's Figure 3).</figcaption></figure>",
+            esc(role
+                .trim_start_matches("worst view ")
+                .trim_matches(['(', ')']))
+        );
+    }
+    for view in ["front", "oblique"] {
+        let role = format!("sampling {view}");
+        if a.pictures.iter().any(|p| p.0 == role) {
+            h.push_str("<figure>");
+            img(h, a, &role, &role);
+            let _ = write!(
+                h,
+                "<figcaption>Sampling coverage ({view}): each triangle coloured by how many \
+                 impostors see it (the paper's Figure 2). <span class=\"legend\">"
+            );
+            for k in 0..=10u32 {
+                let label = if k == 10 {
+                    "10+".to_string()
+                } else {
+                    k.to_string()
+                };
+                let _ = write!(
+                    h,
+                    "<span style=\"background:{}\" title=\"{label}\"></span>",
+                    rgb(count_colour(k))
+                );
+            }
+            h.push_str("</span> 0 (black) to 10+</figcaption></figure>");
+        }
+    }
+    if !a.views_by_impostor_count.is_empty() {
+        h.push_str("<figure>");
+        histogram(h, &a.views_by_impostor_count);
+        h.push_str(
+            "<figcaption>Impostors drawn per view, over the 320 directions.</figcaption></figure>",
+        );
+    }
+    if a.pictures.iter().any(|p| p.0 == "sphere") {
+        h.push_str("<figure>");
+        img(h, a, "sphere", "coverage error over the sphere");
+        let _ = write!(
+            h,
+            "<figcaption>Coverage error over the sphere of view directions (longitude across, \
+             up at the top): <span class=\"legend\"><span style=\"background:{}\"></span>0 \
+             <span style=\"background:{}\"></span>goal <span style=\"background:{}\">\
+             </span>4 x goal or more</span></figcaption></figure>",
+            rgb(error_colour(0.0, 1.0)),
+            rgb(error_colour(1.0, 1.0)),
+            rgb(error_colour(4.0, 1.0)),
+        );
+    }
+    h.push_str("</div>\n");
+    if a.pictures.iter().any(|p| p.0.starts_with("maps-")) {
+        h.push_str("<h3>Baked relief maps (as packaged)</h3><div class=\"pics\">");
+        for (file, caption) in [
+            ("maps-albedo.png", "albedo (BC1)"),
+            ("maps-normal.png", "normal (BC5; x, y, rebuilt z as RGB)"),
+            ("maps-depth.png", "depth (near light, far dark, empty navy)"),
+        ] {
+            h.push_str("<figure>");
+            img(h, a, file, caption);
+            let _ = write!(h, "<figcaption>{caption}</figcaption></figure>");
+        }
+        h.push_str("</div>\n");
+    }
+}
+
+/// Bars for 1, 2, ... impostors per view (index 0, no impostor, only when non-zero).
+fn histogram(h: &mut String, counts: &[u64]) {
+    let first = if counts.first().copied().unwrap_or(0) > 0 {
+        0
+    } else {
+        1
+    };
+    let bars = &counts[first.min(counts.len())..];
+    let max = bars.iter().copied().max().unwrap_or(1).max(1);
+    let (bw, height) = (34.0, 120.0);
+    let width = bw * bars.len() as f64 + 10.0;
+    let _ = write!(
+        h,
+        "<svg width=\"{width}\" height=\"{}\" role=\"img\" aria-label=\"histogram\">",
+        height + 36.0
+    );
+    for (k, &c) in bars.iter().enumerate() {
+        let bh = height * c as f64 / max as f64;
+        let x = 5.0 + bw * k as f64;
+        let _ = write!(
+            h,
+            "<rect x=\"{x}\" y=\"{}\" width=\"{}\" height=\"{bh}\" fill=\"#5b7bd5\"/>\
+             <text x=\"{}\" y=\"{}\" font-size=\"11\" text-anchor=\"middle\">{c}</text>\
+             <text x=\"{}\" y=\"{}\" font-size=\"12\" text-anchor=\"middle\">{}</text>",
+            height - bh + 14.0,
+            bw - 6.0,
+            x + (bw - 6.0) / 2.0,
+            height - bh + 12.0,
+            x + (bw - 6.0) / 2.0,
+            height + 30.0,
+            k + first
+        );
+    }
+    h.push_str("</svg>");
+}

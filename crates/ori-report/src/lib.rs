@@ -1,0 +1,303 @@
+//! The build report: `report/index.html` beside a release, readable at a glance, and
+//! `report/report.json` with the same figures for scripts.
+//!
+//! It is made from what a build leaves in its output folder (`release.json`, the packages,
+//! `report.json`) and the source models (for the reference pictures), so it can be made again
+//! without rebuilding (`cargo xtask report`). Every ORI picture is drawn by the CPU evaluator
+//! from the package's *decoded* textures: what ships, block compression included.
+//!
+//! Invariants: the page is static and self-contained (pictures are PNG files beside it, the
+//! histogram is inline SVG, the only script sorts the table and checks that every picture
+//! loaded); nothing is fetched from a network; an asset whose source is missing or changed
+//! since its package was built gets its figures without the reference pictures, and says so.
+
+mod html;
+mod pictures;
+mod relief;
+
+use std::path::{Path, PathBuf};
+
+use ori_eval::{EvalParams, Evaluator};
+use rayon::prelude::*;
+use serde::Serialize;
+use serde_json::Value;
+
+pub use pictures::{Picture, count_colour, error_colour};
+pub use relief::relief_set;
+
+/// Directions of the side-by-side comparisons (object -> viewer; y is up in most models):
+/// front, right side, from above, and one between impostor directions.
+const VIEWS: [(&str, [f64; 3]); 4] = [
+    ("front", [0.0, 0.0, 1.0]),
+    ("side", [1.0, 0.0, 0.0]),
+    ("top", [0.0, 1.0, 0.0]),
+    ("oblique", [-0.48, 0.36, -0.8]),
+];
+
+/// Edge of the comparison pictures (whatever s0 the selection used: they are for people).
+const PICTURE_SIZE: u32 = 256;
+
+/// One asset's row of the summary and its pictures.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AssetSummary {
+    pub name: String,
+    /// "ok" or the build's failure.
+    pub status: String,
+    pub error: Option<String>,
+    pub faces: Option<u64>,
+    pub impostors: Option<usize>,
+    pub resolution: Option<u32>,
+    pub package: Option<String>,
+    pub package_bytes: Option<u64>,
+    pub texture_bytes: Option<u64>,
+    pub plt: Option<f64>,
+    pub coverage_error_min_percent: Option<f64>,
+    pub coverage_error_max_percent: Option<f64>,
+    pub coverage_error_avg_percent: Option<f64>,
+    pub impostors_per_view: Option<f64>,
+    /// Directions drawing 1, 2, 3, ... impostors (index 0: none).
+    pub views_by_impostor_count: Vec<u64>,
+    /// Mean colour error p_dif (0 to 765) over the comparison views.
+    pub p_dif: Option<f64>,
+    /// Seconds per stage in this build, and whether each job ran or was reused.
+    pub jobs: Vec<(String, String, f64)>,
+    /// Picture files, relative to the report folder, by role.
+    pub pictures: Vec<(String, String)>,
+    /// Why some pictures are missing.
+    pub notes: Vec<String>,
+}
+
+/// `report/report.json`.
+#[derive(Debug, Serialize)]
+pub struct ReportSummary {
+    pub assets: Vec<AssetSummary>,
+}
+
+/// Write `<out_dir>/report/` from the build in `out_dir`, reading source models under
+/// `assets_root`. Returns the path of `index.html`.
+pub fn write_report(out_dir: &Path, assets_root: &Path) -> Result<PathBuf, String> {
+    let read_json = |name: &str| -> Result<Value, String> {
+        let path = out_dir.join(name);
+        let bytes =
+            std::fs::read(&path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+        serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+    };
+    let build = read_json("report.json")?;
+    let release = read_json("release.json")?;
+    let dir = out_dir.join("report");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let assets: Vec<&Value> = build["assets"]
+        .as_array()
+        .map_or(Vec::new(), |a| a.iter().collect());
+    let summaries: Vec<AssetSummary> = assets
+        .par_iter()
+        .enumerate()
+        .map(|(i, a)| asset_summary(i, a, &release, out_dir, assets_root, &dir))
+        .collect();
+    let summary = ReportSummary { assets: summaries };
+    let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
+    write_file(&dir.join("report.json"), &json)?;
+    let index = dir.join("index.html");
+    write_file(&index, html::page(&summary).as_bytes())?;
+    Ok(index)
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    std::fs::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
+}
+
+fn asset_summary(
+    index: usize,
+    a: &Value,
+    release: &Value,
+    out_dir: &Path,
+    assets_root: &Path,
+    dir: &Path,
+) -> AssetSummary {
+    let name = a["name"].as_str().unwrap_or("?").to_string();
+    let q = &a["quality"];
+    let mut s = AssetSummary {
+        name: name.clone(),
+        status: a["status"].as_str().unwrap_or("?").to_string(),
+        error: a["error"].as_str().map(String::from),
+        faces: a["mesh"]["triangles"].as_u64(),
+        resolution: a["resolution"].as_u64().map(|r| r as u32),
+        plt: q["plt"].as_f64(),
+        coverage_error_min_percent: q["coverage_error_min_percent"].as_f64(),
+        coverage_error_max_percent: q["coverage_error_max_percent"].as_f64(),
+        coverage_error_avg_percent: q["coverage_error_avg_percent"].as_f64(),
+        impostors_per_view: q["impostors_per_view"].as_f64(),
+        views_by_impostor_count: q["views_by_impostor_count"]
+            .as_array()
+            .map_or(Vec::new(), |v| v.iter().filter_map(Value::as_u64).collect()),
+        jobs: a["jobs"].as_array().map_or(Vec::new(), |jobs| {
+            jobs.iter()
+                .map(|j| {
+                    (
+                        j["stage"].as_str().unwrap_or("?").to_string(),
+                        j["status"].as_str().unwrap_or("?").to_string(),
+                        j["seconds"].as_f64().unwrap_or(0.0),
+                    )
+                })
+                .collect()
+        }),
+        ..AssetSummary::default()
+    };
+    let entry = release["assets"]
+        .as_array()
+        .and_then(|r| r.iter().find(|e| e["name"] == name.as_str()));
+    let Some(entry) = entry else {
+        return s;
+    };
+    s.package = entry["package"].as_str().map(String::from);
+    s.package_bytes = entry["bytes"].as_u64();
+    s.texture_bytes = entry["texture_bytes"].as_u64();
+    let folder = format!("a{index:03}");
+    if let Err(e) = pictures_of(&mut s, out_dir, assets_root, &dir.join(&folder), &folder) {
+        s.notes.push(e);
+    }
+    s
+}
+
+/// Draw every picture of an asset into `folder` (named `rel` from the report folder).
+fn pictures_of(
+    s: &mut AssetSummary,
+    out_dir: &Path,
+    assets_root: &Path,
+    folder: &Path,
+    rel: &str,
+) -> Result<(), String> {
+    let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
+    let bytes = std::fs::read(&package_path)
+        .map_err(|e| format!("{}: cannot read: {e}", package_path.display()))?;
+    let package =
+        ori_package::read(&bytes).map_err(|e| format!("{}: {e}", package_path.display()))?;
+    let m = &package.manifest;
+    s.impostors = Some(m.impostors.len());
+    let set = relief_set(&package)?;
+    std::fs::create_dir_all(folder).map_err(|e| format!("{}: {e}", folder.display()))?;
+    let mut save = |role: &str, file: &str, p: &Picture| -> Result<(), String> {
+        p.save(&folder.join(file))?;
+        s.pictures.push((role.to_string(), format!("{rel}/{file}")));
+        Ok(())
+    };
+    // Pictures of the package alone.
+    let cell = (m.resolution / 2).clamp(32, 128);
+    for (channel, file) in [
+        (pictures::Channel::Albedo, "maps-albedo.png"),
+        (pictures::Channel::Normal, "maps-normal.png"),
+        (pictures::Channel::Depth, "maps-depth.png"),
+    ] {
+        save(file, file, &pictures::contact_sheet(&set, channel, cell))?;
+    }
+    let directions = ori_views::evaluation_directions();
+    let s0 = m.selection.s0.max(1);
+    let percent: Vec<f64> = m
+        .selection
+        .entries
+        .iter()
+        .map(|e| 100.0 * f64::from(e.missed) / (f64::from(s0) * f64::from(s0)))
+        .collect();
+    save(
+        "sphere",
+        "sphere.png",
+        &pictures::sphere_picture(&directions, &percent, m.selection.goal_percent, 360),
+    )?;
+
+    // Pictures that need the source mesh.
+    let source = assets_root.join(&m.source.name);
+    let source_bytes = std::fs::read(&source)
+        .map_err(|e| format!("no reference pictures: {}: {e}", source.display()))?;
+    if blake3::hash(&source_bytes).to_hex().as_str() != m.source.blake3 {
+        return Err(format!(
+            "no reference pictures: {} changed since the package was built",
+            source.display()
+        ));
+    }
+    let mesh = ori_mesh::load_file(&source, &Default::default())
+        .map_err(|e| format!("no reference pictures: {e}"))?
+        .mesh;
+    let select = &m.params["select"];
+    let params = EvalParams {
+        s0: PICTURE_SIZE,
+        linear_steps: select["linear_steps"].as_u64().unwrap_or(16) as u32,
+        binary_steps: select["binary_steps"].as_u64().unwrap_or(7) as u32,
+        wall_threshold: select["wall_threshold"].as_f64().unwrap_or(0.125),
+        ..EvalParams::default()
+    };
+    let evaluator = Evaluator::new(&mesh, &set, &params).map_err(|e| e.to_string())?;
+    let subset_for = |w: [f64; 3]| -> Vec<usize> {
+        let nearest = nearest(&directions, w);
+        m.selection.entries[nearest]
+            .impostors
+            .iter()
+            .map(|&i| usize::from(i))
+            .collect()
+    };
+    let mut p_dif = Vec::new();
+    for (label, w) in VIEWS {
+        let w = normalize(w);
+        let ([reference, ori, error], errors) =
+            pictures::comparison(&evaluator, w, &subset_for(w))?;
+        p_dif.push(errors.p_dif);
+        save(
+            &format!("{label} reference"),
+            &format!("{label}-mesh.png"),
+            &reference,
+        )?;
+        save(&format!("{label} ori"), &format!("{label}-ori.png"), &ori)?;
+        save(
+            &format!("{label} error"),
+            &format!("{label}-error.png"),
+            &error,
+        )?;
+    }
+    s.p_dif = Some(p_dif.iter().sum::<f64>() / p_dif.len() as f64);
+    // The worst of the 320 directions, as the selection measured it.
+    let worst = (0..m.selection.entries.len())
+        .max_by_key(|&i| (m.selection.entries[i].missed, std::cmp::Reverse(i)))
+        .unwrap_or(0);
+    let w = directions[worst];
+    let ([_, _, error], _) = pictures::comparison(&evaluator, w, &subset_for(w))?;
+    save(
+        &format!("worst view (direction {worst})"),
+        "worst-error.png",
+        &error,
+    )?;
+    // Figure 2: how many impostors sample each triangle.
+    let impostor_dirs: Vec<[f64; 3]> = m.impostors.iter().map(|i| i.direction).collect();
+    let counts = ori_views::sampling_coverage_with_visible(
+        &mesh,
+        &impostor_dirs,
+        m.resolution,
+        vec![true; mesh.triangles.len()],
+    )
+    .counts;
+    for (label, w) in [VIEWS[0], VIEWS[3]] {
+        let p = pictures::sampling_picture(&mesh, &counts, normalize(w), PICTURE_SIZE);
+        save(
+            &format!("sampling {label}"),
+            &format!("sampling-{label}.png"),
+            &p,
+        )?;
+    }
+    Ok(())
+}
+
+fn normalize(w: [f64; 3]) -> [f64; 3] {
+    let l = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+    w.map(|c| c / l)
+}
+
+/// Index of the direction nearest to `w` (largest dot product, lowest index on ties), as the
+/// runtime looks up the selection table.
+fn nearest(directions: &[[f64; 3]], w: [f64; 3]) -> usize {
+    let mut best = (0, f64::NEG_INFINITY);
+    for (i, d) in directions.iter().enumerate() {
+        let dot = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
+        if dot > best.1 {
+            best = (i, dot);
+        }
+    }
+    best.0
+}
