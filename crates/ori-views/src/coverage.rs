@@ -40,7 +40,9 @@ impl SamplingCoverage {
 /// ([`OrthoView::fit`] with no margin, the `GUIDE.md` evaluation viewport; a bake's few texels
 /// of margin change the scale by about 1%). Triangles of scanned meshes are about a pixel or
 /// smaller, so "covers a pixel centre" would miss most of them. Instead a triangle counts as
-/// seen when its centroid passes a depth test against the view's height buffer: take the four
+/// seen when one of four probe points (its centroid, and the points halfway from the centroid
+/// to each corner, so a large triangle half hidden at its centroid still counts) passes a
+/// depth test against the view's height buffer; for the centroid: take the four
 /// pixel centres around the centroid (the 2 x 2 block whose square contains it); the centroid
 /// is seen when it is no more than one pixel width (in world units) below the lowest surface
 /// found at those centres, or when all four are empty. On a visible, locally flat surface the
@@ -121,14 +123,18 @@ pub fn sampling_coverage_with_visible(
     }
 }
 
-/// Per triangle, the number of `directions` whose view sees its centroid.
+/// Per triangle, the number of `directions` whose view sees it (its centroid, or one of the
+/// points halfway from the centroid to a corner: a wide triangle whose centroid alone is
+/// hidden, behind the seed of a cut avocado say, is still seen).
 fn seen_counts(mesh: &Mesh, directions: &[[f64; 3]], resolution: u32) -> Vec<u32> {
-    let centroids: Vec<[f64; 3]> = mesh
+    let probes: Vec<[[f64; 3]; 4]> = mesh
         .triangles
         .iter()
         .map(|tri| {
             let [a, b, c] = tri.map(|i| mesh.positions[i as usize].map(f64::from));
-            std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0)
+            let g: [f64; 3] = std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0);
+            let half = |p: [f64; 3]| std::array::from_fn(|k| 0.5 * (g[k] + p[k]));
+            [g, half(a), half(b), half(c)]
         })
         .collect();
     let zeros = || vec![0u32; mesh.triangles.len()];
@@ -138,7 +144,7 @@ fn seen_counts(mesh: &Mesh, directions: &[[f64; 3]], resolution: u32) -> Vec<u32
             if let Ok(view) =
                 OrthoView::fit(Frame::from_direction(d), &mesh.positions, resolution, 0)
             {
-                add_seen(mesh, &centroids, &view, &mut counts);
+                add_seen(mesh, &probes, &view, &mut counts);
             }
             counts
         })
@@ -148,9 +154,9 @@ fn seen_counts(mesh: &Mesh, directions: &[[f64; 3]], resolution: u32) -> Vec<u32
         })
 }
 
-/// Add 1 to the count of every triangle whose centroid `view` sees (the test is described at
-/// [`sampling_coverage`]).
-fn add_seen(mesh: &Mesh, centroids: &[[f64; 3]], view: &OrthoView, counts: &mut [u32]) {
+/// Add 1 to the count of every triangle `view` sees at one of its probe points (the test is
+/// described at [`sampling_coverage`]).
+fn add_seen(mesh: &Mesh, probes: &[[[f64; 3]; 4]], view: &OrthoView, counts: &mut [u32]) {
     let raster = rasterize(view, &mesh.positions, &mesh.triangles, None);
     let n = view.size as i64;
     let tolerance = 2.0 * view.half_size / f64::from(view.size);
@@ -161,7 +167,7 @@ fn add_seen(mesh: &Mesh, centroids: &[[f64; 3]], view: &OrthoView, counts: &mut 
             f64::NEG_INFINITY
         }
     };
-    for (count, &c) in counts.iter_mut().zip(centroids) {
+    let seen = |c: [f64; 3]| {
         let [x, y, h] = view.project(c);
         // The pixel centres (i + 0.5, j + 0.5) around (x, y).
         let (i, j) = ((x - 0.5).floor() as i64, (y - 0.5).floor() as i64);
@@ -175,7 +181,10 @@ fn add_seen(mesh: &Mesh, centroids: &[[f64; 3]], view: &OrthoView, counts: &mut 
         .into_iter()
         .filter(|h| *h > f64::NEG_INFINITY)
         .fold(f64::INFINITY, f64::min);
-        if lowest == f64::INFINITY || h >= lowest - tolerance {
+        lowest == f64::INFINITY || h >= lowest - tolerance
+    };
+    for (count, p) in counts.iter_mut().zip(probes) {
+        if p.iter().any(|&c| seen(c)) {
             *count += 1;
         }
     }
