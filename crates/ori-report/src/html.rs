@@ -196,7 +196,9 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
         h.push_str(
             "<h3>Reference mesh, ORI, difference</h3>\n<p class=\"muted\">Shaded with the \
              evaluator's light. Difference: red = the mesh covers, the ORI misses; blue = the \
-             ORI covers, the mesh does not; grey = both.</p>\n<div class=\"grid\">",
+             ORI covers, the mesh does not; grey = both.</p>\n<div class=\"grid\">\
+             <div class=\"label\">mesh</div><div class=\"label\">ORI (as packaged)</div>\
+             <div class=\"label\">difference</div><div></div>",
         );
         for view in ["front", "side", "top", "oblique"] {
             img(h, a, &format!("{view} reference"), &format!("{view}: mesh"));
