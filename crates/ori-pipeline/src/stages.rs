@@ -53,7 +53,8 @@ impl Stage for BakeStage {
     }
 
     fn version(&self) -> u32 {
-        1
+        // 2: conservative edge texels (a texel whose centre misses but a sub-sample hits).
+        2
     }
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
