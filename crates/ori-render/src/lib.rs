@@ -1,0 +1,176 @@
+//! The runtime renderer on wgpu: loads `.ori` packages into GPU textures and draws them with
+//! the WGSL shaders of `shaders/` (`ori.wgsl` for impostors, `mesh.wgsl` for reference
+//! meshes), headless, into images read back on the CPU.
+//!
+//! ```no_run
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! use ori_render::{Camera, Renderer};
+//! let package = ori_package::read(&std::fs::read("bunny.ori")?)?;
+//! let renderer = Renderer::new()?;
+//! println!("adapter: {}", renderer.adapter_summary());
+//! let ori = renderer.load_package(&package)?;
+//! let (center, radius) = ori.bounding_sphere();
+//! let camera = Camera::ortho_framing(center, radius, [0.0, 0.3, 1.0]);
+//! let image = renderer.render_ori(&ori, &camera, 512, 512)?;
+//! image.save_png("bunny.png".as_ref())?;
+//! # Ok(()) }
+//! ```
+//!
+//! - [`Renderer`]: the adapter (whatever exists, software drivers included; none is a
+//!   [`RenderError::NoAdapter`], never a panic), the device and the two pipelines.
+//! - [`GpuOri`]: a package's maps as texture arrays, BC-compressed where the adapter samples
+//!   BC, else decoded on the CPU; its selection table over the 320 evaluation directions.
+//! - [`GpuMesh`]: a mesh (positions, normals, UVs, vertex colours; base-colour factor x
+//!   texture x vertex colour; alpha test).
+//! - [`Camera`]: orthographic (the evaluator's framing with [`Camera::from_view`]) or
+//!   perspective.
+//! - [`Renderer::render`] draws any list of [`Draw`]s into one [`Image`]: colour, coverage,
+//!   depth and, per pixel, which impostor (or mesh) drew it.
+//!
+//! # Invariants
+//!
+//! - **One rule.** The fragment shader is `ori_eval::march`'s rule step for step (ray from
+//!   the pixel centre, clip to the occupied volume, 16 linear + 7 binary steps with nearest
+//!   texel lookups, wall discard with empty as an unbounded wall, fragment = texel `hi`), in
+//!   the same `f32` operations in the same order; for an orthographic camera the ray setup is
+//!   the evaluator's, computed in `f64` on the CPU and rounded once, so its rays are the
+//!   evaluator's bit for bit. Step counts and the wall threshold are per-impostor uniforms,
+//!   taken from the package's `params.select` (defaults 16, 7, 0.125). The parity test holds
+//!   GPU and CPU together (coverage, colour, depth, which impostor drew each pixel).
+//! - **Priority: closest direction first (option 3), "first writer wins".** The selected
+//!   impostors draw in table order with the ORI's stencil reference; a fragment passes only
+//!   where the stencil is not yet that reference and claims the pixel whether or not the
+//!   depth test passes. So the first impostor in the list that produces a fragment owns the
+//!   pixel, as in the evaluator. Up to 255 ORIs per render (8-bit stencil).
+//! - **True depth.** Every impostor fragment writes the depth of its hit point, so ORIs and
+//!   meshes composite through one depth buffer in any draw order.
+//! - **Coverage is exact-conservative.** Each impostor draws the back faces of its occupied
+//!   relief box (grown by 1/16 texel for the rasteriser only), so every pixel whose ray
+//!   meets the box runs the shader once, however skewed the view, and the shader clips
+//!   exactly.
+//! - **Same shading.** Impostors and meshes use the evaluator's comparison shading
+//!   (`ori_eval::Shading`): albedo x (0.3 + 0.7 max(0, n . l)), `l = normalize(0.3 u + 0.5 v
+//!   + d)` of the camera frame, in linear light, written to an sRGB target.
+//! - **Errors, not panics.** Invalid packages, meshes, cameras, sizes and wgpu validation
+//!   errors (captured with error scopes) come back as [`RenderError`].
+
+#![warn(missing_docs)]
+
+mod camera;
+mod image;
+mod mesh;
+mod ori;
+mod pipelines;
+mod rays;
+mod renderer;
+mod targets;
+
+pub use camera::{Camera, Projection};
+pub use image::{Image, SOURCE_MESH, SOURCE_NONE};
+pub use mesh::GpuMesh;
+pub use ori::GpuOri;
+pub use renderer::{Renderer, RendererOptions};
+/// The wgpu version this crate is built on, for callers that use [`Renderer::device`].
+pub use wgpu;
+
+/// Search parameters of the runtime rule (the evaluator's `ori_eval::MarchParams`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarchParams {
+    /// Linear-search steps (default 16).
+    pub linear_steps: u32,
+    /// Binary-search steps (default 7).
+    pub binary_steps: u32,
+    /// Vertical-wall threshold, a fraction of the impostor's depth range (default 0.125:
+    /// `0.125 * 254` codes, computed in `f32`).
+    pub wall_threshold: f32,
+}
+
+impl Default for MarchParams {
+    fn default() -> Self {
+        MarchParams {
+            linear_steps: 16,
+            binary_steps: 7,
+            wall_threshold: 0.125,
+        }
+    }
+}
+
+impl MarchParams {
+    /// The parameters a package was measured with (`params.select.linear_steps`,
+    /// `binary_steps`, `wall_threshold`), each defaulted when absent or out of range.
+    pub fn from_manifest(manifest: &ori_package::Manifest) -> MarchParams {
+        let d = MarchParams::default();
+        let select = manifest.params.get("select");
+        let int = |key: &str, max: u64, default: u32| {
+            select
+                .and_then(|s| s.get(key))
+                .and_then(|v| v.as_u64())
+                .filter(|&v| v <= max)
+                .map_or(default, |v| v as u32)
+        };
+        let threshold = select
+            .and_then(|s| s.get("wall_threshold"))
+            .and_then(|v| v.as_f64())
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .map_or(d.wall_threshold, |v| v as f32);
+        MarchParams {
+            linear_steps: int("linear_steps", 1024, d.linear_steps).max(1),
+            binary_steps: int("binary_steps", 32, d.binary_steps),
+            wall_threshold: threshold,
+        }
+    }
+}
+
+/// One thing to draw in [`Renderer::render`].
+#[derive(Clone, Copy)]
+pub enum Draw<'a> {
+    /// A mesh.
+    Mesh(&'a GpuMesh),
+    /// An ORI with the impostors its selection table gives for the camera's view direction
+    /// (from the bounding sphere's centre towards the eye).
+    Ori(&'a GpuOri),
+    /// An ORI with these impostors, in this priority order (closest direction first).
+    OriSubset(&'a GpuOri, &'a [u16]),
+}
+
+/// Why the renderer could not start, load or draw.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    /// No graphics adapter exists (install a Vulkan driver; on Linux without a GPU, Mesa's
+    /// lavapipe: `mesa-vulkan-drivers`).
+    #[error(
+        "no graphics adapter found ({0}); on Linux without a GPU install Mesa's lavapipe (mesa-vulkan-drivers)"
+    )]
+    NoAdapter(String),
+    /// The adapter refused to open a device.
+    #[error("cannot open the graphics device: {0}")]
+    Device(String),
+    /// The package cannot be uploaded.
+    #[error("cannot load the package: {0}")]
+    Package(String),
+    /// The mesh cannot be uploaded.
+    #[error("cannot load the mesh: {0}")]
+    Mesh(String),
+    /// The camera is degenerate.
+    #[error("invalid camera: {0}")]
+    Camera(String),
+    /// The image size is zero or beyond the adapter's limit.
+    #[error("invalid image size {width} x {height} (1 to {max} per edge)")]
+    Size {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// The adapter's largest texture edge.
+        max: u32,
+    },
+    /// The draw list cannot be drawn (an impostor index out of range, too many ORIs).
+    #[error("invalid scene: {0}")]
+    Scene(String),
+    /// wgpu reported an error (validation, out of memory).
+    #[error("gpu error: {0}")]
+    Gpu(String),
+    /// Reading the image back failed.
+    #[error("cannot read the image back: {0}")]
+    Readback(String),
+}

@@ -1,0 +1,251 @@
+// ori.wgsl: draws the impostors of an Omni-directional Relief Impostor (ORI).
+//
+// One draw per selected impostor, closest direction first. The vertex stage draws the back
+// faces of the impostor's occupied relief box (8 corners, 36 indices, front faces culled), so
+// every pixel whose view ray meets the box runs the fragment stage exactly once, whatever the
+// view's skew. The fragment stage follows the runtime rule of `crates/ori-eval/src/march.rs`
+// step by step, with the same f32 operations in the same order:
+//
+//   1. ray: the pixel centre's ray in texture space, `(x, y) = o + z * dir`, `o` where it
+//      crosses depth code 0 (x, y in texels, z in depth codes, 0 nearest the viewer);
+//   2. extent: the part `[z_in, z_out]` of the ray inside the occupied relief volume;
+//   3. lookup: nearest texel, `textureLoad` of `floor(x, y)`, 255 (empty) outside the map;
+//   4. linear search: `linear_steps` samples `z_in + k * (z_out - z_in) / L`, the first with
+//      `z >= code` ends it;
+//   5. binary search: `binary_steps` halvings of the bracket `(lo, hi)`;
+//   6. vertical wall: discard when exactly one of `code(lo)`, `code(hi)` is empty, or they
+//      differ by more than the threshold (in codes);
+//   7. fragment: texel `hi` (normal, albedo), at relief depth `hi`.
+//
+// Priority between impostors (option 3, closest direction first) is "first writer wins"
+// with the stencil buffer: every impostor of one ORI draws with the ORI's stencil reference,
+// passes only where the stencil differs from it, and writes it whether the depth test passes
+// or fails. Discarded fragments write nothing. The fragment depth is the true depth of the
+// hit, so impostors composite with ordinary geometry through the depth buffer.
+
+struct Globals {
+    // World space to clip space (column-major).
+    world_to_clip: mat4x4<f32>,
+    // xyz: unit light direction (towards the light), fixed to the view.
+    light: vec4<f32>,
+    // Orthographic (w = 0): xyz is the view direction towards the viewer.
+    // Perspective (w = 1): xyz is the eye.
+    view: vec4<f32>,
+};
+
+// One impostor as seen by this frame's camera (built on the CPU, `crates/ori-render/src/rays.rs`).
+struct Impostor {
+    // Texture space (x, y texels, z depth codes) to clip space.
+    tex_to_clip: mat4x4<f32>,
+    // The impostor frame (u, v, d) in world space: normals are stored in it.
+    frame_u: vec4<f32>,
+    frame_v: vec4<f32>,
+    frame_d: vec4<f32>,
+    // Orthographic rays: o(px, py) = o0 + px * ex + py * ey; dir constant.
+    o0_ex: vec4<f32>,   // o0.x, o0.y, ex.x, ex.y
+    ey_dir: vec4<f32>,  // ey.x, ey.y, dir.x, dir.y
+    // Perspective rays: the eye in texture space, and the ray direction
+    // r(px, py) = r0 + px * rx + py * ry (texture-space vector).
+    eye: vec4<f32>,
+    r0: vec4<f32>,
+    rx: vec4<f32>,
+    ry: vec4<f32>,
+    // Occupied relief volume: x0, x1, y0, y1 (texels) ...
+    bounds: vec4<f32>,
+    // ... z0, z1 (codes); the map edge N in texels; the wall threshold in codes.
+    depth_range: vec4<f32>,
+    // Texture array layer, projection (0 orthographic, 1 perspective), linear steps,
+    // binary steps.
+    info: vec4<u32>,
+    // x: impostor index (written to the source target).
+    ids: vec4<u32>,
+};
+
+@group(0) @binding(0) var<uniform> globals: Globals;
+@group(0) @binding(1) var<storage, read> impostors: array<Impostor>;
+
+@group(1) @binding(0) var depth_maps: texture_2d_array<f32>;
+@group(1) @binding(1) var normal_maps: texture_2d_array<f32>;
+@group(1) @binding(2) var albedo_maps: texture_2d_array<f32>;
+
+// The box's 12 triangles, wound counter-clockwise seen from outside; corner bits are x, y, z.
+var<private> BOX: array<u32, 36> = array<u32, 36>(
+    4u, 6u, 2u, 4u, 2u, 0u, 1u, 3u, 7u, 1u, 7u, 5u, 1u, 5u, 4u, 1u, 4u, 0u,
+    2u, 6u, 7u, 2u, 7u, 3u, 2u, 3u, 1u, 2u, 1u, 0u, 4u, 5u, 7u, 4u, 7u, 6u
+);
+
+// Rasterised box grown by this much (texels and codes): the fragment stage clips exactly,
+// the rasteriser only has to be conservative.
+const GROW: f32 = 0.0625;
+
+struct VsOut {
+    @builtin(position) position: vec4<f32>,
+    @location(0) @interpolate(flat) slot: u32,
+};
+
+@vertex
+fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) slot: u32) -> VsOut {
+    let imp = impostors[slot];
+    let corner = BOX[vertex];
+    let b = imp.bounds;
+    let z = imp.depth_range;
+    let p = vec3<f32>(
+        select(b.x - GROW, b.y + GROW, (corner & 1u) != 0u),
+        select(b.z - GROW, b.w + GROW, (corner & 2u) != 0u),
+        select(z.x - GROW, z.y + GROW, (corner & 4u) != 0u),
+    );
+    let clip = imp.tex_to_clip * vec4<f32>(p, 1.0);
+    var out: VsOut;
+    // The depth the rasteriser sees is irrelevant (the fragment writes its own); keeping it
+    // mid-range leaves only the w > 0 clip (parts behind a perspective eye).
+    out.position = vec4<f32>(clip.x, clip.y, 0.5 * clip.w, clip.w);
+    out.slot = slot;
+    return out;
+}
+
+// Rule 3: the depth code under (x, y); 255 (empty) outside the map.
+fn code_at(layer: u32, n: f32, x: f32, y: f32) -> f32 {
+    let inside = x >= 0.0 && y >= 0.0 && x < n && y < n;
+    if !inside {
+        return 255.0;
+    }
+    // Non-negative: truncation is floor.
+    let texel = vec2<i32>(i32(x), i32(y));
+    return round(textureLoad(depth_maps, texel, layer, 0).r * 255.0);
+}
+
+// Rule 2 on one axis: narrow `span` to the depths where o + z * d lies in [lo, hi].
+fn clip_axis(o: f32, d: f32, lo: f32, hi: f32, span: ptr<function, vec2<f32>>) -> bool {
+    if d == 0.0 {
+        return o >= lo && o <= hi && (*span).x < (*span).y;
+    }
+    let a = (lo - o) / d;
+    let b = (hi - o) / d;
+    var near = b;
+    var far = a;
+    if a < b {
+        near = a;
+        far = b;
+    }
+    (*span).x = max((*span).x, near);
+    (*span).y = min((*span).y, far);
+    return (*span).x < (*span).y;
+}
+
+struct Hit {
+    found: bool,
+    texel: vec2<i32>,
+    // Texture-space hit point (x, y, z).
+    point: vec3<f32>,
+};
+
+// Rules 1 to 7 for the ray through pixel centre (px, py).
+fn trace(imp: Impostor, px: f32, py: f32) -> Hit {
+    var miss: Hit;
+    miss.found = false;
+    var ox: f32;
+    var oy: f32;
+    var dx: f32;
+    var dy: f32;
+    var span = imp.depth_range.xy;
+    if imp.info.y == 0u {
+        ox = imp.o0_ex.x + px * imp.o0_ex.z + py * imp.ey_dir.x;
+        oy = imp.o0_ex.y + px * imp.o0_ex.w + py * imp.ey_dir.y;
+        dx = imp.ey_dir.z;
+        dy = imp.ey_dir.w;
+    } else {
+        let r = imp.r0.xyz + px * imp.rx.xyz + py * imp.ry.xyz;
+        // The search assumes z grows along the ray.
+        if !(r.z > 0.0) {
+            return miss;
+        }
+        dx = r.x / r.z;
+        dy = r.y / r.z;
+        ox = imp.eye.x - imp.eye.z * dx;
+        oy = imp.eye.y - imp.eye.z * dy;
+        // Nothing behind the eye.
+        span.x = max(span.x, imp.eye.z);
+    }
+    let b = imp.bounds;
+    if !(clip_axis(ox, dx, b.x, b.y, &span) && clip_axis(oy, dy, b.z, b.w, &span)) {
+        return miss;
+    }
+    let layer = imp.info.x;
+    let n = imp.depth_range.z;
+    let linear_steps = imp.info.z;
+    let z_in = span.x;
+    let z_out = span.y;
+    let step = (z_out - z_in) / f32(linear_steps);
+    var lo = z_in;
+    var hi = z_in;
+    var below = false;
+    for (var k = 1u; k <= linear_steps; k++) {
+        let z = z_in + step * f32(k);
+        if z >= code_at(layer, n, ox + z * dx, oy + z * dy) {
+            hi = z;
+            below = true;
+            break;
+        }
+        lo = z;
+    }
+    if !below {
+        return miss;
+    }
+    for (var i = 0u; i < imp.info.w; i++) {
+        let mid = 0.5 * (lo + hi);
+        if mid >= code_at(layer, n, ox + mid * dx, oy + mid * dy) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let hx = ox + hi * dx;
+    let hy = oy + hi * dy;
+    // A sample below the surface is inside the map; kept as a guard.
+    if !(hx >= 0.0 && hy >= 0.0 && hx < n && hy < n) {
+        return miss;
+    }
+    let a = code_at(layer, n, ox + lo * dx, oy + lo * dy);
+    let c = code_at(layer, n, hx, hy);
+    if (a == 255.0) != (c == 255.0) || abs(a - c) > imp.depth_range.w {
+        return miss;
+    }
+    var hit: Hit;
+    hit.found = true;
+    hit.texel = vec2<i32>(i32(hx), i32(hy));
+    hit.point = vec3<f32>(hx, hy, hi);
+    return hit;
+}
+
+struct FsOut {
+    @location(0) color: vec4<f32>,
+    @location(1) depth: f32,
+    @location(2) source: u32,
+    @builtin(frag_depth) frag_depth: f32,
+};
+
+@fragment
+fn fs_main(in: VsOut) -> FsOut {
+    let imp = impostors[in.slot];
+    let hit = trace(imp, in.position.x, in.position.y);
+    let clip = imp.tex_to_clip * vec4<f32>(hit.point, 1.0);
+    let depth = clip.z / clip.w;
+    if !hit.found || !(clip.w > 0.0) || !(depth >= 0.0 && depth <= 1.0) {
+        discard;
+    }
+    let layer = imp.info.x;
+    // Normal x, y as stored (8-bit codes, as the evaluator decodes them), z rebuilt.
+    let nxy = round(textureLoad(normal_maps, hit.texel, layer, 0).xy * 255.0) / 255.0 * 2.0 - 1.0;
+    let nz = sqrt(max(0.0, 1.0 - nxy.x * nxy.x - nxy.y * nxy.y));
+    let normal = imp.frame_u.xyz * nxy.x + imp.frame_v.xyz * nxy.y + imp.frame_d.xyz * nz;
+    let albedo = textureLoad(albedo_maps, hit.texel, layer, 0).rgb;
+    // The evaluator's comparison shading (ori_eval::Shading), in linear light; the target
+    // encodes sRGB.
+    let light = 0.3 + 0.7 * max(dot(normal, globals.light.xyz), 0.0);
+    var out: FsOut;
+    out.color = vec4<f32>(albedo * light, 1.0);
+    out.depth = depth;
+    out.source = imp.ids.x;
+    out.frag_depth = depth;
+    return out;
+}
