@@ -156,6 +156,11 @@ impl Cache {
         Ok(blob)
     }
 
+    /// Store bytes already verified to hash to `hash` (downloaded from a remote cache).
+    pub(crate) fn store_verified_blob(&self, hash: &ContentHash, bytes: &[u8]) -> io::Result<()> {
+        write_atomic(&self.blob_path(hash), bytes)
+    }
+
     /// Whether a blob of the right size exists (a cheap check; contents are verified on read).
     pub fn blob_present(&self, blob: &BlobRef) -> bool {
         fs::metadata(self.blob_path(&blob.hash)).is_ok_and(|m| m.len() == blob.size)
@@ -205,14 +210,33 @@ impl Cache {
 }
 
 /// JSON preceded by a line holding the blake3 of the JSON text, so any damage is detected.
-fn write_checked_json<T: Serialize>(path: &Path, value: &T) -> io::Result<()> {
+/// The same bytes are stored locally and sent to a remote cache.
+pub(crate) fn encode_checked_json<T: Serialize>(value: &T) -> io::Result<Vec<u8>> {
     let json = serde_json::to_string_pretty(value).map_err(io::Error::other)?;
-    let text = format!("{}\n{json}\n", ContentHash::of(json.as_bytes()));
-    write_atomic(path, text.as_bytes())
+    Ok(format!("{}\n{json}\n", ContentHash::of(json.as_bytes())).into_bytes())
+}
+
+/// Check and parse what [`encode_checked_json`] wrote; the error says what is wrong.
+pub(crate) fn decode_checked_json<T: for<'de> Deserialize<'de>>(bytes: &[u8]) -> Result<T, String> {
+    let text = std::str::from_utf8(bytes).map_err(|_| "not UTF-8".to_string())?;
+    let (check, json) = text
+        .split_once('\n')
+        .ok_or_else(|| "no checksum line".to_string())?;
+    let json = json
+        .strip_suffix('\n')
+        .ok_or_else(|| "truncated".to_string())?;
+    if check != ContentHash::of(json.as_bytes()).to_hex() {
+        return Err("checksum mismatch".into());
+    }
+    serde_json::from_str(json).map_err(|e| format!("unreadable entry: {e}"))
+}
+
+fn write_checked_json<T: Serialize>(path: &Path, value: &T) -> io::Result<()> {
+    write_atomic(path, &encode_checked_json(value)?)
 }
 
 fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, ReadError> {
-    let text = match fs::read(path) {
+    let bytes = match fs::read(path) {
         Ok(t) => t,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Err(ReadError::Missing),
         Err(error) => {
@@ -222,24 +246,13 @@ fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, Rea
             });
         }
     };
-    let corrupt = |reason: &str| {
+    decode_checked_json(&bytes).map_err(|reason| {
         let _ = fs::remove_file(path);
         ReadError::Corrupt {
             path: path.to_path_buf(),
-            reason: reason.to_string(),
+            reason,
         }
-    };
-    let text = std::str::from_utf8(&text).map_err(|_| corrupt("not UTF-8"))?;
-    let (check, json) = text
-        .split_once('\n')
-        .ok_or_else(|| corrupt("no checksum line"))?;
-    let json = json
-        .strip_suffix('\n')
-        .ok_or_else(|| corrupt("truncated"))?;
-    if check != ContentHash::of(json.as_bytes()).to_hex() {
-        return Err(corrupt("checksum mismatch"));
-    }
-    serde_json::from_str(json).map_err(|e| corrupt(&format!("unreadable entry: {e}")))
+    })
 }
 
 #[cfg(test)]

@@ -5,12 +5,14 @@
 //! entry maps a key to the output hashes. A downstream job's key is made from upstream
 //! *output* hashes, so an upstream job that re-runs and produces the same bytes stops the
 //! cascade (early cutoff). [`run`] executes a [`Graph`] on a rayon pool; results never depend
-//! on the thread count because every job is a pure function of its key.
+//! on the thread count because every job is a pure function of its key. A [`RemoteCache`]
+//! (optional) is consulted after the local cache and filled by builders in read-write mode.
 
 mod cache;
 mod hash;
 mod job;
 mod progress;
+mod remote;
 mod run;
 mod sources;
 
@@ -18,6 +20,9 @@ pub use cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadErro
 pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec, Stage, StageError};
 pub use progress::{Progress, ProgressMode};
+pub use remote::{
+    HttpStore, Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore,
+};
 pub use run::{
     Build, JobContext, JobResult, Observer, Outcome, RunOptions, RunReason, Silent, StageSummary,
     run,

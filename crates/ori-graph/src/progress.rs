@@ -128,6 +128,7 @@ impl Observer for Progress {
             Outcome::WouldRun(reason) => Some(format!("{what}: would run because {reason}")),
             Outcome::Failed(message) => Some(format!("error: {what}: {message}")),
             Outcome::Skipped if lines => Some(format!("{what}: skipped (an upstream job failed)")),
+            Outcome::NotCached if lines => Some(format!("{what}: not in the cache")),
             _ => None,
         };
         if let Some(line) = line {

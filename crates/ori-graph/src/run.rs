@@ -5,13 +5,14 @@ use std::fmt;
 use std::io;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use crate::cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError};
 use crate::hash::{ContentHash, canonical_json, job_key};
 use crate::job::{Graph, Input, JobId, JobSpec, StageError};
+use crate::remote::RemoteCache;
 use crate::sources::SourceHasher;
 
 /// How to run a graph.
@@ -21,6 +22,11 @@ pub struct RunOptions {
     pub threads: usize,
     /// Decide and report what would run, without running anything.
     pub dry_run: bool,
+    /// A remote cache consulted after the local one (and filled, in read-write mode). Shared
+    /// by the runs of one build, so an unavailable server is reported once.
+    pub remote: Option<Arc<RemoteCache>>,
+    /// Run no stage: a job whose result is in neither cache is [`Outcome::NotCached`].
+    pub cached_only: bool,
 }
 
 /// Why a job had to run.
@@ -74,6 +80,8 @@ pub enum Outcome {
     Failed(String),
     /// Not attempted because an upstream job failed.
     Skipped,
+    /// A cached-only run found no result for it, locally or remotely.
+    NotCached,
 }
 
 /// The result of one job.
@@ -162,6 +170,8 @@ pub fn run<'g>(
         sources: SourceHasher::new(cache.stat_memo_path()),
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
+        cached_only: options.cached_only,
+        remote: options.remote.clone(),
         observer,
     };
     let pool = rayon::ThreadPoolBuilder::new()
@@ -232,7 +242,7 @@ impl<'g> Build<'g> {
                 Outcome::Reused => s.reused += 1,
                 Outcome::Ran(_) => s.ran += 1,
                 Outcome::WouldRun(_) => s.would_run += 1,
-                Outcome::Failed(_) => s.failed += 1,
+                Outcome::Failed(_) | Outcome::NotCached => s.failed += 1,
                 Outcome::Skipped => s.skipped += 1,
             }
         }
@@ -246,6 +256,8 @@ struct Exec<'g> {
     sources: SourceHasher,
     results: Vec<OnceLock<JobResult>>,
     dry_run: bool,
+    cached_only: bool,
+    remote: Option<Arc<RemoteCache>>,
     observer: &'g dyn Observer,
 }
 
@@ -318,7 +330,9 @@ impl<'g> Exec<'g> {
                 } => {
                     let upstream = self.result(*dep);
                     match &upstream.outcome {
-                        Outcome::Failed(_) | Outcome::Skipped => return Err(Outcome::Skipped),
+                        Outcome::Failed(_) | Outcome::Skipped | Outcome::NotCached => {
+                            return Err(Outcome::Skipped);
+                        }
                         Outcome::WouldRun(_) => {
                             return Err(Outcome::WouldRun(RunReason::UpstreamWouldRun));
                         }
@@ -359,11 +373,24 @@ impl<'g> Exec<'g> {
                 }
                 Err(reason) => reason,
             },
-            Err(ReadError::Missing) => self.explain_miss(job, &key, &inputs),
+            Err(ReadError::Missing) => match self.remote_hit(job, &key, &inputs) {
+                Some(entry) => {
+                    return JobResult {
+                        outcome: Outcome::Reused,
+                        outputs: entry.outputs,
+                        warnings: entry.warnings,
+                        duration: Duration::ZERO,
+                    };
+                }
+                None => self.explain_miss(job, &key, &inputs),
+            },
             Err(e) => RunReason::CorruptEntry(e.to_string()),
         };
         if self.dry_run {
             return JobResult::without_outputs(Outcome::WouldRun(reason));
+        }
+        if self.cached_only {
+            return JobResult::without_outputs(Outcome::NotCached);
         }
         self.observer.job_started(job);
         let start = Instant::now();
@@ -391,6 +418,9 @@ impl<'g> Exec<'g> {
                 self.cache.root().display()
             );
             return JobResult::without_outputs(Outcome::Failed(message));
+        }
+        if let Some(remote) = &self.remote {
+            remote.upload(&self.cache, &key, &entry, self.observer);
         }
         JobResult {
             outcome: Outcome::Ran(reason),
@@ -422,7 +452,7 @@ impl<'g> Exec<'g> {
             }
         }
         for (name, blob) in &entry.outputs {
-            if !self.cache.blob_present(blob) {
+            if !self.cache.blob_present(blob) && !self.fetch_blob(blob) {
                 self.cache.discard_blob(&blob.hash);
                 return Err(RunReason::CorruptEntry(format!(
                     "output `{name}` ({}) is missing or truncated",
@@ -431,6 +461,64 @@ impl<'g> Exec<'g> {
             }
         }
         Ok(())
+    }
+
+    /// Download a blob missing from the local cache from the remote one, verified.
+    fn fetch_blob(&self, blob: &BlobRef) -> bool {
+        !self.dry_run
+            && self
+                .remote
+                .as_ref()
+                .is_some_and(|r| r.fetch_blob(&self.cache, blob, self.observer))
+    }
+
+    /// The remote cache's result for a job missing from the local cache: its entry, checked
+    /// like a local one (discovered files unchanged, every output blob downloaded and
+    /// verified), then stored locally. A dry run only checks the entry and writes nothing.
+    fn remote_hit(
+        &self,
+        job: &JobSpec,
+        key: &ContentHash,
+        inputs: &[(String, ContentHash)],
+    ) -> Option<ActionEntry> {
+        let remote = self.remote.as_ref()?;
+        let entry = remote.fetch_action(key, self.observer)?;
+        if entry.stage != job.stage.name() {
+            self.observer.note(&format!(
+                "warning: remote cache {}: action entry {} is for stage `{}`, not `{}`; not used",
+                remote.describe(),
+                key.short(),
+                entry.stage,
+                job.stage.name()
+            ));
+            return None;
+        }
+        if self.dry_run {
+            let dir = source_dir(job);
+            let unchanged = entry.discovered.iter().all(|file| {
+                dir.and_then(|d| self.sources.hash(&d.join(&file.path)).unwrap_or(None))
+                    == file.hash
+            });
+            return unchanged.then_some(entry);
+        }
+        self.validate(job, &entry).ok()?;
+        let record = JobRecord {
+            key: *key,
+            stage_version: job.stage.version(),
+            params: job.params.clone(),
+            inputs: inputs.iter().cloned().collect(),
+        };
+        let stored = self
+            .cache
+            .write_action(key, &entry)
+            .and_then(|()| self.cache.write_record(&identity(job), &record));
+        if let Err(e) = stored {
+            self.observer.note(&format!(
+                "warning: cannot write to the cache {}: {e}",
+                self.cache.root().display()
+            ));
+        }
+        Some(entry)
     }
 
     /// Why a job whose key is not in the cache must run, by comparison with its last run.
@@ -533,11 +621,25 @@ impl<'g> Exec<'g> {
                     path.display()
                 )));
             }
-            Err(damage) => self.observer.note(&format!(
-                "warning: {}: {damage}; re-running stage `{}` to regenerate it",
-                job.asset,
-                job.stage.name()
-            )),
+            Err(damage) => {
+                if self.fetch_blob(blob)
+                    && let Ok(bytes) = self.cache.read_blob(blob)
+                {
+                    return Ok(bytes);
+                }
+                if self.cached_only || self.dry_run {
+                    return Err(StageError(format!(
+                        "{}: output `{name}` of stage `{}` is not in the local cache ({damage})",
+                        job.asset,
+                        job.stage.name()
+                    )));
+                }
+                self.observer.note(&format!(
+                    "warning: {}: {damage}; re-running stage `{}` to regenerate it",
+                    job.asset,
+                    job.stage.name()
+                ));
+            }
         }
         // Regenerate: the same inputs must give the same bytes, which keeps every
         // downstream key valid.

@@ -151,6 +151,7 @@ fn build<'g>(fx: &Fixture, graph: &'g Graph, threads: usize) -> Build<'g> {
         &RunOptions {
             threads,
             dry_run: false,
+            ..RunOptions::default()
         },
         &Silent,
     )
@@ -367,6 +368,7 @@ fn dry_run_reports_without_running() {
         &RunOptions {
             threads: 1,
             dry_run: true,
+            ..RunOptions::default()
         },
         &Silent,
     );

@@ -1,0 +1,517 @@
+//! The remote cache: a shared store of blobs and action entries that several builders read
+//! and (in `read-write` mode) fill, behind the local cache.
+//!
+//! The protocol is the HTTP remote cache that Bazel clients speak and that bazel-remote or an
+//! nginx WebDAV location serve: `GET`, `PUT` and `HEAD` of `{base}/cas/{hash}` for blobs and
+//! `{base}/ac/{key}` for action entries. Our hashes are blake3 in hex and our action entries
+//! are the local cache's checksummed JSON (not Bazel's `ActionResult`), so a server that
+//! checks sha256 content addresses (bazel-remote) rejects them; a plain HTTP or WebDAV store
+//! accepts them.
+//!
+//! The graph talks to a [`RemoteStore`] (trait object), so tests can use an in-memory store;
+//! [`HttpStore`] is the real one. [`RemoteCache`] adds the policy: everything downloaded is
+//! verified before use (blobs against their hash, entries against their checksum), wrong bytes
+//! are a miss with a warning; the first time the server is unreachable, slow or failing, one
+//! warning is printed and it is not asked again during this build; uploads are best effort.
+
+use std::collections::HashSet;
+use std::fmt;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::Duration;
+
+use serde::{Deserialize, Serialize};
+
+use crate::cache::{ActionEntry, BlobRef, Cache, decode_checked_json, encode_checked_json};
+use crate::hash::ContentHash;
+use crate::run::Observer;
+
+/// The two namespaces of the protocol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Namespace {
+    /// Blobs by content hash (`cas/`).
+    Cas,
+    /// Action entries by job key (`ac/`).
+    Ac,
+}
+
+impl Namespace {
+    /// The path segment of the namespace.
+    pub fn segment(self) -> &'static str {
+        match self {
+            Namespace::Cas => "cas",
+            Namespace::Ac => "ac",
+        }
+    }
+}
+
+/// Why a remote request gave nothing.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum RemoteError {
+    /// The server cannot be used (down, too slow, failing, refusing us): stop asking it.
+    Unavailable(String),
+    /// This upload was refused (no permission, no space); downloads may still work.
+    Rejected(String),
+    /// The answer cannot be what was asked for (e.g. longer than the blob): a miss.
+    Invalid(String),
+}
+
+impl fmt::Display for RemoteError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            RemoteError::Unavailable(m) | RemoteError::Rejected(m) | RemoteError::Invalid(m) => {
+                f.write_str(m)
+            }
+        }
+    }
+}
+
+/// A store speaking the remote-cache protocol. Implementations must be thread-safe; the
+/// caller verifies everything they return.
+pub trait RemoteStore: Send + Sync {
+    /// Where the store is, for messages (no credentials).
+    fn describe(&self) -> String;
+    /// The object's bytes, `None` when the store does not have it. `limit`: the most bytes
+    /// the caller accepts (more is [`RemoteError::Invalid`]).
+    fn get(
+        &self,
+        ns: Namespace,
+        hash: &ContentHash,
+        limit: u64,
+    ) -> Result<Option<Vec<u8>>, RemoteError>;
+    /// Whether the store has the object.
+    fn contains(&self, ns: Namespace, hash: &ContentHash) -> Result<bool, RemoteError>;
+    /// Store the object (replacing any copy).
+    fn put(&self, ns: Namespace, hash: &ContentHash, bytes: &[u8]) -> Result<(), RemoteError>;
+}
+
+/// Whether this builder uploads what it builds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RemoteMode {
+    /// Download only (developer machines): the store is never written.
+    #[default]
+    ReadOnly,
+    /// Download, and upload the results of jobs that ran (build farm machines, CI).
+    ReadWrite,
+}
+
+/// Bytes and objects moved by this client during a build.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct RemoteStats {
+    pub entries_downloaded: u64,
+    pub blobs_downloaded: u64,
+    pub bytes_downloaded: u64,
+    pub entries_uploaded: u64,
+    pub blobs_uploaded: u64,
+    pub bytes_uploaded: u64,
+    /// Downloads that failed verification (each a miss and a warning).
+    pub corrupt: u64,
+}
+
+#[derive(Default)]
+struct Counters {
+    entries_down: AtomicU64,
+    blobs_down: AtomicU64,
+    bytes_down: AtomicU64,
+    entries_up: AtomicU64,
+    blobs_up: AtomicU64,
+    bytes_up: AtomicU64,
+    corrupt: AtomicU64,
+}
+
+/// The most bytes accepted for an action entry (they are a few hundred bytes).
+const MAX_ENTRY_BYTES: u64 = 16 << 20;
+/// Blobs at least this large are checked with `HEAD` before upload; smaller ones are sent.
+const HEAD_BEFORE_PUT: u64 = 64 << 10;
+
+/// The remote cache of one build, shared by every graph run of that build: a store, a mode,
+/// whether the store has failed (then it is not asked again), and counters.
+pub struct RemoteCache {
+    store: Box<dyn RemoteStore>,
+    mode: RemoteMode,
+    offline: AtomicBool,
+    uploads_off: AtomicBool,
+    /// Blobs found damaged on the server: uploaded again (without `HEAD`) once rebuilt.
+    damaged: Mutex<HashSet<ContentHash>>,
+    counters: Counters,
+}
+
+impl fmt::Debug for RemoteCache {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("RemoteCache")
+            .field("store", &self.store.describe())
+            .field("mode", &self.mode)
+            .finish()
+    }
+}
+
+impl RemoteCache {
+    /// A remote cache over `store`.
+    pub fn new(store: Box<dyn RemoteStore>, mode: RemoteMode) -> RemoteCache {
+        RemoteCache {
+            store,
+            mode,
+            offline: AtomicBool::new(false),
+            uploads_off: AtomicBool::new(false),
+            damaged: Mutex::new(HashSet::new()),
+            counters: Counters::default(),
+        }
+    }
+
+    /// Where the store is.
+    pub fn describe(&self) -> String {
+        self.store.describe()
+    }
+
+    /// The mode it was opened in.
+    pub fn mode(&self) -> RemoteMode {
+        self.mode
+    }
+
+    /// Whether the store failed during this build (and is no longer asked).
+    pub fn is_offline(&self) -> bool {
+        self.offline.load(Ordering::Relaxed)
+    }
+
+    /// What this client moved so far.
+    pub fn stats(&self) -> RemoteStats {
+        let c = &self.counters;
+        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        RemoteStats {
+            entries_downloaded: get(&c.entries_down),
+            blobs_downloaded: get(&c.blobs_down),
+            bytes_downloaded: get(&c.bytes_down),
+            entries_uploaded: get(&c.entries_up),
+            blobs_uploaded: get(&c.blobs_up),
+            bytes_uploaded: get(&c.bytes_up),
+            corrupt: get(&c.corrupt),
+        }
+    }
+
+    /// Note an unusable server once, and stop asking it.
+    fn went_offline(&self, error: &RemoteError, observer: &dyn Observer) {
+        if !self.offline.swap(true, Ordering::Relaxed) {
+            observer.note(&format!(
+                "warning: remote cache {} is unavailable ({error}); building locally for the rest of this build",
+                self.describe()
+            ));
+        }
+    }
+
+    /// Note damaged bytes from the server: a miss, one warning each.
+    fn damaged_download(&self, what: String, observer: &dyn Observer) {
+        self.counters.corrupt.fetch_add(1, Ordering::Relaxed);
+        observer.note(&format!(
+            "warning: remote cache {}: {what}; not used, building it instead",
+            self.describe()
+        ));
+    }
+
+    /// The action entry for `key`, verified by its checksum; `None` when the server does not
+    /// have it, is unavailable, or sent damaged bytes (warned).
+    pub(crate) fn fetch_action(
+        &self,
+        key: &ContentHash,
+        observer: &dyn Observer,
+    ) -> Option<ActionEntry> {
+        if self.is_offline() {
+            return None;
+        }
+        let bytes = match self.store.get(Namespace::Ac, key, MAX_ENTRY_BYTES) {
+            Ok(Some(bytes)) => bytes,
+            Ok(None) => return None,
+            Err(RemoteError::Invalid(why)) => {
+                self.damaged_download(format!("action entry {}: {why}", key.short()), observer);
+                return None;
+            }
+            Err(e) => {
+                self.went_offline(&e, observer);
+                return None;
+            }
+        };
+        self.counters.entries_down.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .bytes_down
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        match decode_checked_json(&bytes) {
+            Ok(entry) => Some(entry),
+            Err(why) => {
+                self.damaged_download(
+                    format!("action entry {} is damaged ({why})", key.short()),
+                    observer,
+                );
+                None
+            }
+        }
+    }
+
+    /// Download a blob into the local cache, verified against its hash. Whether it is now
+    /// there.
+    pub(crate) fn fetch_blob(
+        &self,
+        cache: &Cache,
+        blob: &BlobRef,
+        observer: &dyn Observer,
+    ) -> bool {
+        if self.is_offline() {
+            return false;
+        }
+        let bytes = match self.store.get(Namespace::Cas, &blob.hash, blob.size) {
+            Ok(Some(bytes)) => bytes,
+            Ok(None) => return false,
+            Err(RemoteError::Invalid(why)) => {
+                self.note_damaged(blob);
+                self.damaged_download(format!("blob {}: {why}", blob.hash.short()), observer);
+                return false;
+            }
+            Err(e) => {
+                self.went_offline(&e, observer);
+                return false;
+            }
+        };
+        self.counters.blobs_down.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .bytes_down
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        let actual = ContentHash::of(&bytes);
+        if actual != blob.hash {
+            self.note_damaged(blob);
+            self.damaged_download(
+                format!(
+                    "blob {} is damaged (its {} bytes hash to {})",
+                    blob.hash.short(),
+                    bytes.len(),
+                    actual.short()
+                ),
+                observer,
+            );
+            return false;
+        }
+        match cache.store_verified_blob(&blob.hash, &bytes) {
+            Ok(()) => true,
+            Err(e) => {
+                observer.note(&format!(
+                    "warning: cannot write to the cache {}: {e}",
+                    cache.root().display()
+                ));
+                false
+            }
+        }
+    }
+
+    fn note_damaged(&self, blob: &BlobRef) {
+        self.damaged
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(blob.hash);
+    }
+
+    /// Upload a job that ran: its blobs (from the local cache), then its action entry, so
+    /// the server never lists an entry whose blobs it lacks. Best effort: a failure is one
+    /// warning for the build, and nothing more is uploaded. Read-only mode uploads nothing.
+    pub(crate) fn upload(
+        &self,
+        cache: &Cache,
+        key: &ContentHash,
+        entry: &ActionEntry,
+        observer: &dyn Observer,
+    ) {
+        if self.mode != RemoteMode::ReadWrite
+            || self.is_offline()
+            || self.uploads_off.load(Ordering::Relaxed)
+        {
+            return;
+        }
+        if let Err(e) = self.try_upload(cache, key, entry) {
+            match e {
+                RemoteError::Unavailable(_) => self.went_offline(&e, observer),
+                _ => {
+                    if !self.uploads_off.swap(true, Ordering::Relaxed) {
+                        observer.note(&format!(
+                            "warning: remote cache {}: upload failed ({e}); not uploading for the rest of this build",
+                            self.describe()
+                        ));
+                    }
+                }
+            }
+        }
+    }
+
+    fn try_upload(
+        &self,
+        cache: &Cache,
+        key: &ContentHash,
+        entry: &ActionEntry,
+    ) -> Result<(), RemoteError> {
+        for blob in entry.outputs.values() {
+            let damaged = self
+                .damaged
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .remove(&blob.hash);
+            if !damaged
+                && blob.size >= HEAD_BEFORE_PUT
+                && self.store.contains(Namespace::Cas, &blob.hash)?
+            {
+                continue;
+            }
+            let bytes = cache
+                .read_blob(blob)
+                .map_err(|e| RemoteError::Rejected(format!("cannot read the local copy: {e}")))?;
+            self.store.put(Namespace::Cas, &blob.hash, &bytes)?;
+            self.counters.blobs_up.fetch_add(1, Ordering::Relaxed);
+            self.counters
+                .bytes_up
+                .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        }
+        let bytes = encode_checked_json(entry)
+            .map_err(|e| RemoteError::Rejected(format!("cannot encode the entry: {e}")))?;
+        self.store.put(Namespace::Ac, key, &bytes)?;
+        self.counters.entries_up.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .bytes_up
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        Ok(())
+    }
+}
+
+/// The remote-cache protocol over plain HTTP/1.1 (no TLS), with one connection pool.
+pub struct HttpStore {
+    agent: ureq::Agent,
+    base: String,
+    authorization: Option<String>,
+    timeout: Duration,
+}
+
+impl HttpStore {
+    /// A store at `base` (`http://host[:port][/path]`, no trailing slash needed). `token`:
+    /// sent as `Authorization: Bearer <token>`. `timeout`: for connecting, and for each whole
+    /// request.
+    pub fn new(base: &str, token: Option<&str>, timeout: Duration) -> HttpStore {
+        let config = ureq::Agent::config_builder()
+            .http_status_as_error(false)
+            .timeout_connect(Some(timeout))
+            .timeout_global(Some(timeout))
+            // Deterministic routing: a cache on the farm's network, never through a proxy
+            // taken from the environment.
+            .proxy(None)
+            .max_idle_connections_per_host(32)
+            .user_agent(concat!("ori-graph/", env!("CARGO_PKG_VERSION")))
+            .build();
+        HttpStore {
+            agent: config.into(),
+            base: base.trim_end_matches('/').to_string(),
+            authorization: token.map(|t| format!("Bearer {t}")),
+            timeout,
+        }
+    }
+
+    fn url(&self, ns: Namespace, hash: &ContentHash) -> String {
+        format!("{}/{}/{}", self.base, ns.segment(), hash.to_hex())
+    }
+
+    fn with_auth<B>(&self, request: ureq::RequestBuilder<B>) -> ureq::RequestBuilder<B> {
+        match &self.authorization {
+            Some(a) => request.header("Authorization", a),
+            None => request,
+        }
+    }
+
+    /// A transport error: the server cannot be used.
+    fn transport(&self, url: &str, e: ureq::Error) -> RemoteError {
+        match e {
+            ureq::Error::Timeout(_) => RemoteError::Unavailable(format!(
+                "{url}: no answer within {} s",
+                self.timeout.as_secs_f64()
+            )),
+            e => RemoteError::Unavailable(format!("{url}: {e}")),
+        }
+    }
+}
+
+/// Read a short response body to its end, so the connection goes back to the pool.
+fn drain(response: &mut ureq::http::Response<ureq::Body>) {
+    let _ = response
+        .body_mut()
+        .with_config()
+        .limit(1 << 16)
+        .read_to_vec();
+}
+
+impl RemoteStore for HttpStore {
+    fn describe(&self) -> String {
+        self.base.clone()
+    }
+
+    fn get(
+        &self,
+        ns: Namespace,
+        hash: &ContentHash,
+        limit: u64,
+    ) -> Result<Option<Vec<u8>>, RemoteError> {
+        let url = self.url(ns, hash);
+        let mut response = self
+            .with_auth(self.agent.get(&url))
+            .call()
+            .map_err(|e| self.transport(&url, e))?;
+        match response.status().as_u16() {
+            200 => {}
+            404 => {
+                drain(&mut response);
+                return Ok(None);
+            }
+            status => {
+                return Err(RemoteError::Unavailable(format!(
+                    "GET {url}: HTTP {status}"
+                )));
+            }
+        }
+        match response
+            .body_mut()
+            .with_config()
+            .limit(limit.saturating_add(1))
+            .read_to_vec()
+        {
+            Ok(bytes) if bytes.len() as u64 > limit => Err(RemoteError::Invalid(format!(
+                "more than the expected {limit} bytes"
+            ))),
+            Ok(bytes) => Ok(Some(bytes)),
+            Err(ureq::Error::BodyExceedsLimit(_)) => Err(RemoteError::Invalid(format!(
+                "more than the expected {limit} bytes"
+            ))),
+            Err(e) => Err(self.transport(&url, e)),
+        }
+    }
+
+    fn contains(&self, ns: Namespace, hash: &ContentHash) -> Result<bool, RemoteError> {
+        let url = self.url(ns, hash);
+        let response = self
+            .with_auth(self.agent.head(&url))
+            .call()
+            .map_err(|e| self.transport(&url, e))?;
+        match response.status().as_u16() {
+            200 => Ok(true),
+            404 => Ok(false),
+            status => Err(RemoteError::Unavailable(format!(
+                "HEAD {url}: HTTP {status}"
+            ))),
+        }
+    }
+
+    fn put(&self, ns: Namespace, hash: &ContentHash, bytes: &[u8]) -> Result<(), RemoteError> {
+        let url = self.url(ns, hash);
+        let mut response = self
+            .with_auth(self.agent.put(&url))
+            .send(bytes)
+            .map_err(|e| self.transport(&url, e))?;
+        drain(&mut response);
+        match response.status().as_u16() {
+            200..=299 => Ok(()),
+            status @ 500.. => Err(RemoteError::Unavailable(format!(
+                "PUT {url}: HTTP {status}"
+            ))),
+            status => Err(RemoteError::Rejected(format!("PUT {url}: HTTP {status}"))),
+        }
+    }
+}
