@@ -4,60 +4,11 @@
 
 mod common;
 
-use std::collections::BTreeMap;
 use std::fs;
 use std::path::Path;
 use std::process::Command;
 
 use common::*;
-
-const STAGES: [&str; 7] = [
-    "ingest", "views", "bake", "select", "plt", "compress", "package",
-];
-
-/// How many jobs of each stage ran, in pipeline order.
-fn ran_all(out: &std::process::Output) -> [usize; 7] {
-    STAGES.map(|s| ran(out, s))
-}
-
-/// Every file of the release under `dir` (packages and `release.json`; the report logs one
-/// build), relative path to bytes.
-fn tree(dir: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for e in fs::read_dir(&d).unwrap() {
-            let path = e.unwrap().path();
-            let name = path.file_name().unwrap().to_string_lossy().into_owned();
-            if name == "report.json" || name == "report" {
-                continue;
-            }
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let rel = path
-                    .strip_prefix(dir)
-                    .unwrap()
-                    .to_string_lossy()
-                    .into_owned();
-                out.insert(rel, fs::read(&path).unwrap());
-            }
-        }
-    }
-    out
-}
-
-/// Asserts two release folders are the same, naming the first file that differs.
-fn same_release(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>, what: &str) {
-    assert_eq!(
-        a.keys().collect::<Vec<_>>(),
-        b.keys().collect::<Vec<_>>(),
-        "{what}: different files"
-    );
-    for (k, v) in a {
-        assert!(v == &b[k], "{what}: {k} differs");
-    }
-}
 
 fn verify(dir: &Path) -> std::process::Output {
     Command::new(EXE).arg("verify").arg(dir).output().unwrap()

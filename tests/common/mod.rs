@@ -2,6 +2,7 @@
 //! readers for its summary and report.
 #![allow(dead_code)] // each test file uses a part
 
+use std::collections::BTreeMap;
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -126,4 +127,53 @@ pub fn asset<'a>(report: &'a Value, name: &str) -> &'a Value {
         .iter()
         .find(|a| a["name"] == name)
         .unwrap_or_else(|| panic!("{name} not in report: {report}"))
+}
+
+/// The stages, in pipeline order.
+pub const STAGES: [&str; 7] = [
+    "ingest", "views", "bake", "select", "plt", "compress", "package",
+];
+
+/// How many jobs of each stage ran, in pipeline order.
+pub fn ran_all(out: &std::process::Output) -> [usize; 7] {
+    STAGES.map(|s| ran(out, s))
+}
+
+/// Every file of the release under `dir` (packages and `release.json`; the report logs one
+/// build), relative path to bytes.
+pub fn tree(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in fs::read_dir(&d).unwrap() {
+            let path = e.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if name == "report.json" || name == "report" {
+                continue;
+            }
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(dir)
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned();
+                out.insert(rel, fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// Asserts two release folders are the same, naming the first file that differs.
+pub fn same_release(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>, what: &str) {
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "{what}: different files"
+    );
+    for (k, v) in a {
+        assert!(v == &b[k], "{what}: {k} differs");
+    }
 }

@@ -35,6 +35,23 @@ pub enum Bench {
     /// A cold build of every model in ../shared/models, then the rebuild after one model's
     /// geometry is edited, against that model's own cold build.
     Release,
+    /// A cold build of ../shared/models filling a remote cache (a local nginx), then a build
+    /// from an empty local cache taking everything from it: times and bytes moved.
+    Remote {
+        /// Also time a cold build without the remote cache.
+        #[arg(long)]
+        baseline: bool,
+    },
+    /// Frame time of drawing the ORI versus the full mesh with the wgpu renderer (whatever
+    /// adapter exists: the software driver on a machine without a GPU).
+    Render {
+        /// Frames per model and representation (the median is reported).
+        #[arg(long, default_value_t = 12)]
+        frames: usize,
+        /// Image edge in pixels.
+        #[arg(long, default_value_t = 512)]
+        size: u32,
+    },
 }
 
 pub fn run(which: Bench) -> ExitCode {
@@ -43,6 +60,8 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Bake { runs } => bake(runs),
         Bench::Select { runs } => select(runs),
         Bench::Release => release(),
+        Bench::Remote { baseline } => crate::bench_remote::run(baseline),
+        Bench::Render { frames, size } => render(frames, size),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -303,5 +322,103 @@ fn release() -> Result<(), String> {
         own_cold.as_secs_f64(),
         (edited.as_secs_f64() - own_cold.as_secs_f64())
     );
+    Ok(())
+}
+
+/// Build the package of one shared model in a temporary project; returns the package bytes.
+fn package_of(rel: &str, dir: &Path) -> Result<Vec<u8>, String> {
+    let assets = dir.join("assets");
+    std::fs::create_dir_all(&assets).map_err(|e| e.to_string())?;
+    let file = Path::new(rel).file_name().unwrap();
+    std::fs::copy(shared_models().join(rel), assets.join(file)).map_err(|e| e.to_string())?;
+    let config = dir.join("pipeline.toml");
+    std::fs::write(&config, "[assets]\nroot = \"assets\"\n").map_err(|e| e.to_string())?;
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let out = Command::new(exe)
+        .args(["build-assets", "--quiet", "--no-report", "--config"])
+        .arg(&config)
+        .output()
+        .map_err(|e| e.to_string())?;
+    if !out.status.success() {
+        return Err(format!(
+            "build of {rel} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let package = dir
+        .join("target/ori-out")
+        .join(ori_pipeline::release::package_path(&file.to_string_lossy()));
+    std::fs::read(&package).map_err(|e| format!("{}: {e}", package.display()))
+}
+
+fn render(frames: usize, size: u32) -> Result<(), String> {
+    let renderer = ori_render::Renderer::new().map_err(|e| e.to_string())?;
+    println!("adapter: {}", renderer.adapter_summary());
+    println!(
+        "{size} x {size}, orthographic turntable of {frames} frames, each frame read back to the CPU; medians"
+    );
+    println!(
+        "{:<28} {:>8} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9}",
+        "model", "faces", "empty ms", "ORI ms", "mesh ms", "ORI net", "mesh net", "mesh/ORI"
+    );
+    for rel in [
+        "stanford/bunny/stanford-bunny.obj",
+        "stanford/dragon/dragon_res2_binary.ply",
+    ] {
+        let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+        let bytes = package_of(rel, dir.path())?;
+        let package = ori_package::read(&bytes).map_err(|e| e.to_string())?;
+        let mesh = ori_mesh::load_file(&shared_models().join(rel), &Default::default())
+            .map_err(|e| e.to_string())?
+            .mesh;
+        let ori = renderer.load_package(&package).map_err(|e| e.to_string())?;
+        let gpu_mesh = renderer.load_mesh(&mesh).map_err(|e| e.to_string())?;
+        let (center, radius) = ori.bounding_sphere();
+        let cameras: Vec<ori_render::Camera> = (0..frames.max(1))
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / frames.max(1) as f64;
+                ori_render::Camera::ortho_framing(center, radius, [a.sin(), 0.35, a.cos()])
+            })
+            .collect();
+        // One untimed frame of each: pipelines and textures warm.
+        renderer
+            .render_ori(&ori, &cameras[0], size, size)
+            .map_err(|e| e.to_string())?;
+        renderer
+            .render_mesh(&gpu_mesh, &cameras[0], size, size)
+            .map_err(|e| e.to_string())?;
+        let (mut t_ori, mut t_mesh, mut t_empty) = (Vec::new(), Vec::new(), Vec::new());
+        for camera in &cameras {
+            // The fixed cost of a frame (targets, submission, read-back), to subtract.
+            let t = Instant::now();
+            renderer
+                .render(&[], camera, size, size)
+                .map_err(|e| e.to_string())?;
+            t_empty.push(t.elapsed());
+            let t = Instant::now();
+            renderer
+                .render_ori(&ori, camera, size, size)
+                .map_err(|e| e.to_string())?;
+            t_ori.push(t.elapsed());
+            let t = Instant::now();
+            renderer
+                .render_mesh(&gpu_mesh, camera, size, size)
+                .map_err(|e| e.to_string())?;
+            t_mesh.push(t.elapsed());
+        }
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
+        let (e, o, m) = (ms(median(t_empty)), ms(median(t_ori)), ms(median(t_mesh)));
+        println!(
+            "{:<28} {:>8} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>10.2} {:>9.2}",
+            Path::new(rel).file_name().unwrap().to_string_lossy(),
+            mesh.triangles.len(),
+            e,
+            o,
+            m,
+            o - e,
+            m - e,
+            (m - e) / (o - e).max(1e-3)
+        );
+    }
     Ok(())
 }

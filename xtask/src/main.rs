@@ -2,8 +2,11 @@
 //! crate, so everything it does is also testable and usable from code.
 
 mod bench;
+mod bench_remote;
 mod compress;
 mod eval_table;
+mod nginx;
+mod preview;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,6 +29,9 @@ struct Cli {
 enum Command {
     /// Build every asset found under the assets folder, reusing cached results.
     BuildAssets(BuildArgs),
+    /// Write the release from the caches (local, then remote) without running any stage:
+    /// after `build-assets --shard K/N` on every shard.
+    Assemble(AssembleArgs),
     /// Run a benchmark and print its figures.
     Bench {
         #[command(subcommand)]
@@ -35,6 +41,8 @@ enum Command {
     CompressTexture(compress::Args),
     /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
     EvalTable(eval_table::Args),
+    /// Draw a package with the wgpu runtime renderer beside its mesh and the difference.
+    Preview(preview::Args),
     /// Write the HTML build report of an output folder again, without rebuilding.
     Report {
         /// The output folder (default: `[output] dir` of the configuration).
@@ -89,16 +97,82 @@ struct BuildArgs {
     /// Do not write the HTML report (report/index.html) after the build.
     #[arg(long)]
     no_report: bool,
+    /// Build only part K of N of the assets (balanced by source size; see ARCHITECTURE.md)
+    /// and write no release; `cargo xtask assemble` writes it once every part is built.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<ori_pipeline::shard::Shard>,
+    /// Where selection is measured: the CPU evaluator (default) or the wgpu renderer on the
+    /// adapter found. GPU results are device-dependent: they get their own cache keys and are
+    /// used only when asked for.
+    #[arg(long, value_enum, default_value = "cpu")]
+    backend: Backend,
+}
+
+/// `--backend`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Backend {
+    Cpu,
+    Gpu,
+}
+
+#[derive(clap::Args)]
+struct AssembleArgs {
+    /// Pipeline configuration.
+    #[arg(long, default_value = "pipeline.toml")]
+    config: PathBuf,
+    /// Assets folder (default: `[assets] root` of the configuration).
+    #[arg(long)]
+    assets: Option<PathBuf>,
+    /// Output folder (default: `[output] dir`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Cache folder (default: `[cache] dir`).
+    #[arg(long)]
+    cache: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(short = 'j', long = "jobs", default_value_t = 0)]
+    jobs: usize,
+    /// Print only warnings, errors and the summary.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Also write every package as an inspectable folder into DIR/<asset>/.
+    #[arg(long, value_name = "DIR")]
+    explode: Option<PathBuf>,
+    /// Do not write the HTML report (report/index.html).
+    #[arg(long)]
+    no_report: bool,
+    /// The backend the shards measured selection with.
+    #[arg(long, value_enum, default_value = "cpu")]
+    backend: Backend,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::BuildAssets(args) => build(args),
+        Command::BuildAssets(args) => build(args, false),
+        Command::Assemble(a) => build(
+            BuildArgs {
+                config: a.config,
+                assets: a.assets,
+                out: a.out,
+                cache: a.cache,
+                jobs: a.jobs,
+                explain: false,
+                dry_run: false,
+                quiet: a.quiet,
+                dump_maps: None,
+                explode: a.explode,
+                no_report: a.no_report,
+                shard: None,
+                backend: a.backend,
+            },
+            true,
+        ),
         Command::Bench { which } => bench::run(which),
         Command::CompressTexture(args) => compress::run(args),
         Command::EvalTable(args) => eval_table::run(args),
         Command::Verify { dir } => verify(&dir),
+        Command::Preview(args) => preview::run(args),
         Command::Report {
             dir,
             config,
@@ -157,16 +231,32 @@ fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf
     }
 }
 
-fn build(args: BuildArgs) -> ExitCode {
+/// `build-assets`, or `assemble` (no stage runs). Exit status 0: built; 1: some job failed
+/// or (assemble) some asset is not cached; 2: the configuration or command line is wrong.
+fn build(args: BuildArgs, assemble: bool) -> ExitCode {
     let progress = if args.quiet {
         ProgressMode::Quiet
     } else {
         ProgressMode::detect()
     };
-    let write_report = !(args.no_report || args.dry_run);
+    let write_report = !(args.no_report || args.dry_run || args.shard.is_some());
     let (config_path, out_arg, assets_arg) =
         (args.config.clone(), args.out.clone(), args.assets.clone());
+    let gpu_select = match args.backend {
+        Backend::Cpu => None,
+        Backend::Gpu => match ori_pipeline::gpu_select::renderer() {
+            Ok(r) => {
+                println!("selection backend: gpu on {}", r.adapter_summary());
+                Some(r.adapter_summary())
+            }
+            Err(e) => {
+                eprintln!("error: --backend gpu: {e}");
+                return ExitCode::from(2);
+            }
+        },
+    };
     let options = BuildOptions {
+        gpu_select,
         config: args.config,
         assets: args.assets,
         out: args.out,
@@ -177,6 +267,8 @@ fn build(args: BuildArgs) -> ExitCode {
         progress,
         dump_maps: args.dump_maps,
         explode: args.explode,
+        shard: args.shard,
+        assemble,
     };
     match build_assets(&options) {
         Ok(summary) => {
@@ -203,6 +295,10 @@ fn build(args: BuildArgs) -> ExitCode {
             } else {
                 ExitCode::SUCCESS
             }
+        }
+        Err(e @ ori_pipeline::PipelineError::NotCached(_)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
         }
         Err(e) => {
             eprintln!("error: {e}");

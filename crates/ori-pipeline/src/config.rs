@@ -47,18 +47,114 @@ impl Default for AssetsConfig {
     }
 }
 
-/// `[cache]`: the local artifact cache.
+/// `[cache]`: the local artifact cache, and optionally a remote one behind it.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CacheConfig {
     pub dir: PathBuf,
+    /// `[cache.remote]`; none by default.
+    pub remote: Option<RemoteConfig>,
 }
 
 impl Default for CacheConfig {
     fn default() -> Self {
         CacheConfig {
             dir: PathBuf::from("target/ori-cache"),
+            remote: None,
         }
+    }
+}
+
+/// `[cache.remote]`: a shared cache speaking the HTTP remote-cache protocol
+/// (`{url}/cas/{hash}`, `{url}/ac/{key}`), consulted after the local cache.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RemoteConfig {
+    /// `http://host[:port][/path]`.
+    pub url: String,
+    /// The environment variable holding a bearer token, if the server wants one.
+    #[serde(default)]
+    pub token_env: Option<String>,
+    /// Limit in seconds for connecting and for each request; a server slower than this is
+    /// treated as unavailable for the rest of the build.
+    #[serde(default = "default_timeout_s")]
+    pub timeout_s: f64,
+    /// `"read-only"` (download only; the default) or `"read-write"` (also upload).
+    #[serde(default)]
+    pub mode: ori_graph::RemoteMode,
+}
+
+fn default_timeout_s() -> f64 {
+    10.0
+}
+
+impl RemoteConfig {
+    /// Check the values; the message names the key at fault.
+    fn validate(&self) -> Result<(), String> {
+        let url = &self.url;
+        let bad = |why: &str| Err(format!("[cache.remote] url = {url:?}: {why}"));
+        let Some(rest) = url.strip_prefix("http://") else {
+            return if url.starts_with("https://") {
+                bad(
+                    "https is not supported (this client speaks plain HTTP; terminate TLS in a local proxy)",
+                )
+            } else {
+                bad("expected http://host[:port][/path]")
+            };
+        };
+        let host_port = rest.split('/').next().unwrap_or("");
+        if host_port.is_empty()
+            || host_port.contains('@')
+            || rest.contains(['?', '#'])
+            || rest.chars().any(|c| c.is_whitespace() || c.is_control())
+        {
+            return bad("expected http://host[:port][/path] (no user, query or fragment)");
+        }
+        if let Some((host, port)) = host_port.rsplit_once(':')
+            && !host.ends_with(']')
+            && (host.is_empty() || port.parse::<u16>().is_err())
+        {
+            return bad("the port must be a number from 0 to 65535");
+        }
+        if let Some(name) = &self.token_env
+            && (name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+        {
+            return Err(format!(
+                "[cache.remote] token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
+            ));
+        }
+        if !(self.timeout_s > 0.0 && self.timeout_s <= 3600.0) {
+            return Err(format!(
+                "[cache.remote] timeout_s = {}: expected more than 0 and at most 3600 seconds",
+                self.timeout_s
+            ));
+        }
+        Ok(())
+    }
+
+    /// The bearer token from `token_env`, read now (`None` without `token_env`). An unset
+    /// or empty variable is an error naming the key and the variable.
+    pub fn token(&self) -> Result<Option<String>, String> {
+        let Some(name) = &self.token_env else {
+            return Ok(None);
+        };
+        match std::env::var(name) {
+            Ok(token) if !token.is_empty() => Ok(Some(token)),
+            _ => Err(format!(
+                "[cache.remote] token_env = {name:?}: the environment variable {name} is not set"
+            )),
+        }
+    }
+
+    /// The remote cache this configures (reads the token).
+    pub fn open(&self) -> Result<ori_graph::RemoteCache, String> {
+        let token = self.token()?;
+        let store = ori_graph::HttpStore::new(
+            &self.url,
+            token.as_deref(),
+            std::time::Duration::from_secs_f64(self.timeout_s),
+        );
+        Ok(ori_graph::RemoteCache::new(Box::new(store), self.mode))
     }
 }
 
@@ -98,6 +194,11 @@ pub struct StageParams {
     /// `bake.resolution` then holds the default until it does.
     #[serde(skip)]
     pub auto_resolution: bool,
+    /// The GPU adapter selection is measured on (`build-assets --backend gpu`); `None`: the
+    /// CPU evaluator. Part of the select job's parameters, so results of different devices
+    /// never share a cache entry.
+    #[serde(skip)]
+    pub select_device: Option<String>,
 }
 
 /// `[ingest]`: mesh loading.
@@ -261,6 +362,9 @@ impl Config {
                 stages: over,
             });
         }
+        if let Some(remote) = &file.cache.remote {
+            remote.validate().map_err(fail)?;
+        }
         for pattern in file.assets.include.iter().chain(&file.assets.exclude) {
             glob(pattern).map_err(|e| fail(format!("[assets] pattern {pattern:?}: {e}")))?;
         }
@@ -363,6 +467,47 @@ mod tests {
                 .ingest
                 .recompute_normals
         );
+    }
+
+    #[test]
+    fn remote_cache_settings_are_checked() {
+        let c = parse("[cache.remote]\nurl = \"http://cache.farm:8080/ori/\"\n").unwrap();
+        let r = c.cache.remote.unwrap();
+        assert_eq!(r.url, "http://cache.farm:8080/ori/");
+        assert_eq!(r.mode, ori_graph::RemoteMode::ReadOnly);
+        assert_eq!(r.timeout_s, 10.0);
+        assert_eq!(r.token().unwrap(), None);
+        let c = parse(
+            "[cache.remote]\nurl = \"http://127.0.0.1\"\nmode = \"read-write\"\ntimeout_s = 2\n\
+             token_env = \"ORI_TEST_TOKEN_THAT_IS_NOT_SET\"\n",
+        )
+        .unwrap();
+        let r = c.cache.remote.unwrap();
+        assert_eq!(r.mode, ori_graph::RemoteMode::ReadWrite);
+        assert_eq!(r.timeout_s, 2.0);
+        let e = r.token().unwrap_err();
+        assert!(
+            e.contains("token_env") && e.contains("ORI_TEST_TOKEN_THAT_IS_NOT_SET is not set"),
+            "{e}"
+        );
+        for (text, named) in [
+            ("url = \"https://c\"", "https is not supported"),
+            ("url = \"ftp://c\"", "url = \"ftp://c\""),
+            ("url = \"http://\"", "url = \"http://\""),
+            ("url = \"http://c:port\"", "port"),
+            ("url = \"http://c?x=1\"", "no user, query"),
+            ("url = \"http://c\"\nmode = \"readonly\"", "`read-only`"),
+            ("url = \"http://c\"\ntimeout_s = 0", "timeout_s = 0"),
+            (
+                "url = \"http://c\"\ntoken_env = \"A-B\"",
+                "token_env = \"A-B\"",
+            ),
+            ("url = \"http://c\"\ntokn_env = \"A\"", "`tokn_env`"),
+            ("mode = \"read-only\"", "missing field `url`"),
+        ] {
+            let e = parse(&format!("[cache.remote]\n{text}\n")).unwrap_err();
+            assert!(e.contains(named), "{text}: {e}");
+        }
     }
 
     #[test]

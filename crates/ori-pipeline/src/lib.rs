@@ -7,13 +7,17 @@
 
 pub mod config;
 pub mod discover;
+pub mod gpu_select;
 pub mod ingest;
 pub mod package;
 pub mod release;
+pub mod shard;
 pub mod stages;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+
+use ori_graph::{RemoteCache, RemoteMode, RemoteStats};
 use std::time::{Duration, Instant};
 
 use ori_graph::{Cache, Graph, Input, JobId, JobSpec, Outcome, Progress, ProgressMode, RunOptions};
@@ -32,6 +36,14 @@ pub enum PipelineError {
     Assets(String),
     #[error("{}: {message}", path.display())]
     Output { path: PathBuf, message: String },
+    /// `assemble` found assets whose results are not all in the cache (one line each:
+    /// the asset and what is missing).
+    #[error(
+        "{} asset(s) not fully in the cache (build them first, e.g. with `build-assets --shard K/N`); no release written:\n  {}",
+        .0.len(),
+        .0.join("\n  ")
+    )]
+    NotCached(Vec<String>),
 }
 
 /// What `build-assets` was asked to do.
@@ -53,6 +65,14 @@ pub struct BuildOptions {
     pub dump_maps: Option<PathBuf>,
     /// Write every package as an inspectable folder into this folder.
     pub explode: Option<PathBuf>,
+    /// Build only this part of the assets, and write no release (`--shard K/N`).
+    pub shard: Option<shard::Shard>,
+    /// Run no stage: take every result from the caches (local, then remote) and write the
+    /// release, or fail naming the assets that are not fully cached (`assemble`).
+    pub assemble: bool,
+    /// Measure selection with the wgpu renderer on this adapter (`--backend gpu`; the
+    /// adapter's summary, from `gpu_select::renderer`), instead of the CPU evaluator.
+    pub gpu_select: Option<String>,
 }
 
 /// The jobs of one asset.
@@ -137,7 +157,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
         let select = graph.add(JobSpec {
             asset: asset.name.clone(),
             stage: select_stage.clone(),
-            params: to_json(&params.select),
+            params: select_params(params),
             inputs: vec![
                 (ingest::MESH.into(), output(ingest, ingest::MESH)),
                 (stages::MAPS.into(), output(bake, stages::MAPS)),
@@ -204,6 +224,16 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
     (graph, jobs)
 }
 
+/// The select job's parameters: `[select]`, plus the backend and device when the GPU measures.
+fn select_params(params: &config::StageParams) -> serde_json::Value {
+    let mut json = to_json(&params.select);
+    if let Some(device) = &params.select_device {
+        json["backend"] = stages::GPU_BACKEND.into();
+        json["device"] = device.as_str().into();
+    }
+    json
+}
+
 /// The parameters a package records: every stage's, and whether the resolution was chosen
 /// by `auto`.
 fn recorded_params(params: &config::StageParams) -> serde_json::Value {
@@ -229,8 +259,33 @@ pub struct BuildSummary {
     /// Source files read and hashed (the rest came from the stat memo).
     pub sources_hashed: u64,
     pub dry_run: bool,
-    /// Where the report was written (not for dry runs).
+    /// Where the report was written (not for dry runs or shards).
     pub report: Option<PathBuf>,
+    /// The part built, and how many assets there are in all (`--shard`).
+    pub shard: Option<(shard::Shard, usize)>,
+    /// What the remote cache did, when one is configured.
+    pub remote: Option<RemoteSummary>,
+}
+
+/// The remote cache's part in a build.
+#[derive(Clone, Debug, Serialize)]
+pub struct RemoteSummary {
+    pub url: String,
+    pub mode: RemoteMode,
+    /// The server failed during the build (the rest was built locally).
+    pub unavailable: bool,
+    pub stats: RemoteStats,
+}
+
+impl RemoteSummary {
+    fn of(remote: &RemoteCache) -> RemoteSummary {
+        RemoteSummary {
+            url: remote.describe(),
+            mode: remote.mode(),
+            unavailable: remote.is_offline(),
+            stats: remote.stats(),
+        }
+    }
 }
 
 /// One stage's line of the summary.
@@ -359,14 +414,27 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         .cache
         .clone()
         .unwrap_or_else(|| config.resolve(&config.cache.dir));
-    let assets = discover(&root, &config.assets)?;
-    if assets.is_empty() {
+    let all_assets = discover(&root, &config.assets)?;
+    if all_assets.is_empty() {
         return Err(PipelineError::Assets(format!(
             "no assets under {} match {:?}",
             root.display(),
             config.assets.include
         )));
     }
+    let assets = match options.shard {
+        Some(s) => shard::select(&all_assets, s),
+        None => all_assets.clone(),
+    };
+    let remote = match &config.cache.remote {
+        Some(r) => Some(Arc::new(r.open().map_err(|message| {
+            PipelineError::Config {
+                path: options.config.clone(),
+                message,
+            }
+        })?)),
+        None => None,
+    };
     let cache = Cache::open(&cache_dir).map_err(|e| PipelineError::Output {
         path: cache_dir.clone(),
         message: format!("cannot create the cache folder: {e}"),
@@ -374,9 +442,16 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
     let run_options = RunOptions {
         threads: options.threads,
         dry_run: options.dry_run,
+        remote: remote.clone(),
+        cached_only: options.assemble,
     };
-    let mut params: Vec<config::StageParams> =
-        assets.iter().map(|a| config.params_for(&a.name)).collect();
+    let mut params: Vec<config::StageParams> = assets
+        .iter()
+        .map(|a| config::StageParams {
+            select_device: options.gpu_select.clone(),
+            ..config.params_for(&a.name)
+        })
+        .collect();
     let mut stages = Vec::new();
     let mut sources_hashed = 0;
     // `auto` resolutions are measured first (a dry run plans the first guess only).
@@ -427,6 +502,14 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
                     break;
                 }
                 Outcome::Skipped => status = "failed",
+                Outcome::NotCached => {
+                    status = "failed";
+                    error = Some(format!(
+                        "stage `{}` is not in the cache",
+                        graph.job(id).stage.name()
+                    ));
+                    break;
+                }
             }
         }
         let result = build.result(j.ingest);
@@ -463,13 +546,16 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
                             Outcome::WouldRun(_) => "would run",
                             Outcome::Failed(_) => "failed",
                             Outcome::Skipped => "skipped",
+                            Outcome::NotCached => "not cached",
                         },
                         seconds: secs(r.duration),
                     }
                 })
                 .collect(),
         };
-        if status == "ok" {
+        // A dry run reads no output: a result found in the remote cache is not downloaded.
+        let readable = status == "ok" && !options.dry_run;
+        if readable {
             let outputs = quality(&build, j).and_then(|q| {
                 let bytes = build
                     .read_output(j.package, package::PACKAGE)
@@ -488,14 +574,14 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
                 }
             }
         }
-        if let Some(dir) = options.dump_maps.as_ref().filter(|_| status == "ok")
+        if let Some(dir) = options.dump_maps.as_ref().filter(|_| readable)
             && let Err(e) = dump_maps(&build, j, dir)
         {
             unreadable_outputs += 1;
             entry.status = "failed";
             entry.error = Some(e);
         }
-        if matches!(result.outcome, Outcome::Reused | Outcome::Ran(_)) {
+        if !options.dry_run && matches!(result.outcome, Outcome::Reused | Outcome::Ran(_)) {
             match build.read_output(j.ingest, ingest::SUMMARY) {
                 Ok(bytes) => entry.mesh = serde_json::from_slice(&bytes).ok(),
                 Err(e) => {
@@ -513,14 +599,31 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         .count()
         + unreadable_outputs;
 
-    if !options.dry_run {
-        release::write(&out_dir, &packages)
-            .map_err(|(path, message)| PipelineError::Output { path, message })?;
-        if let Some(dir) = &options.explode {
-            explode(dir, &packages)?;
+    if options.assemble && !options.dry_run {
+        let missing: Vec<String> = report
+            .assets
+            .iter()
+            .filter(|a| a.status != "ok")
+            .map(|a| match &a.error {
+                Some(e) => format!("{}: {e}", a.name),
+                None => format!("{}: {}", a.name, a.status),
+            })
+            .collect();
+        if !missing.is_empty() {
+            return Err(PipelineError::NotCached(missing));
         }
     }
-    let report_path = if options.dry_run {
+    let write_release = !options.dry_run && options.shard.is_none();
+    if !options.dry_run
+        && let Some(dir) = &options.explode
+    {
+        explode(dir, &packages)?;
+    }
+    if write_release {
+        release::write(&out_dir, &packages)
+            .map_err(|(path, message)| PipelineError::Output { path, message })?;
+    }
+    let report_path = if !write_release {
         None
     } else {
         let path = out_dir.join("report.json");
@@ -540,6 +643,8 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         sources_hashed,
         dry_run: options.dry_run,
         report: report_path,
+        shard: options.shard.map(|s| (s, all_assets.len())),
+        remote: remote.as_deref().map(RemoteSummary::of),
     })
 }
 
@@ -697,6 +802,36 @@ pub fn format_summary(s: &BuildSummary) -> String {
     ));
     if let Some(r) = &s.report {
         out.push_str(&format!("; report: {}", r.display()));
+    }
+    if let Some((shard, total)) = s.shard {
+        out.push_str(&format!(
+            "\nshard {shard}: {} of {total} assets; no release written (`cargo xtask assemble` writes it once every shard is built)",
+            s.assets
+        ));
+    }
+    if let Some(r) = &s.remote {
+        let mb = |b: u64| b as f64 / 1e6;
+        let st = &r.stats;
+        let mode = match r.mode {
+            RemoteMode::ReadOnly => "read-only",
+            RemoteMode::ReadWrite => "read-write",
+        };
+        out.push_str(&format!(
+            "\nremote cache {} ({mode}): downloaded {} entries, {} blobs, {:.2} MB; uploaded {} entries, {} blobs, {:.2} MB",
+            r.url,
+            st.entries_downloaded,
+            st.blobs_downloaded,
+            mb(st.bytes_downloaded),
+            st.entries_uploaded,
+            st.blobs_uploaded,
+            mb(st.bytes_uploaded)
+        ));
+        if st.corrupt > 0 {
+            out.push_str(&format!("; {} damaged download(s) rebuilt", st.corrupt));
+        }
+        if r.unavailable {
+            out.push_str("; unavailable during the build, the rest was built locally");
+        }
     }
     out
 }

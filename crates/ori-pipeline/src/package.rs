@@ -344,3 +344,45 @@ fn manifest(
         params: params.pipeline.clone(),
     }
 }
+
+/// A package of `set` to measure with the GPU renderer (`gpu_select`): exact R8 depth (all
+/// that coverage reads), quickly compressed normal and albedo, and a placeholder selection
+/// table (every direction: impostor 0) and PLT. Never written anywhere.
+pub(crate) fn measuring_package(
+    set: &ReliefSet,
+    select: &ori_select::SelectParams,
+) -> Result<ori_package::Package, String> {
+    let compress = CompressParams {
+        quality: CompressQuality::Fast,
+        depth: DepthFormat::R8,
+    };
+    let textures = set
+        .maps
+        .iter()
+        .map(|m| compress_map(m, &compress))
+        .collect::<Result<Vec<_>, _>>()?;
+    let directions = ori_views::evaluation_directions().len();
+    let selection = ori_select::Selection {
+        rule: select.rule,
+        goal_percent: select.goal_percent,
+        s0: select.s0,
+        impostor_count: set.maps.len() as u32,
+        entries: vec![
+            ori_select::Entry {
+                impostors: vec![0],
+                missed: 0,
+            };
+            directions
+        ],
+    };
+    let plt = ori_plt::estimate(select.s0, &vec![0; directions]);
+    let params = PackageParams {
+        name: "measurement".into(),
+        tool: tool(),
+        depth: DepthFormat::R8,
+        pipeline: serde_json::json!({ "select": select }),
+    };
+    let manifest = manifest(&params, "0".repeat(64), set, &selection, &plt);
+    let bytes = ori_package::write(&manifest, &textures).map_err(|e| e.to_string())?;
+    ori_package::read(&bytes).map_err(|e| e.to_string())
+}

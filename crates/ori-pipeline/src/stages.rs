@@ -78,6 +78,9 @@ pub fn decode_maps(bytes: &[u8]) -> Result<ReliefSet, String> {
 pub const SELECTION: &str = "selection";
 pub const PLT: &str = "plt";
 
+/// The `backend` parameter of a select job measured with the GPU renderer.
+pub const GPU_BACKEND: &str = "gpu";
+
 /// Chooses, for each of the 320 evaluation directions, the impostors to draw (`[select]`).
 pub struct SelectStage;
 
@@ -91,12 +94,27 @@ impl Stage for SelectStage {
     }
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
-        let params: ori_select::SelectParams = params(ctx)?;
+        // `backend` and `device` (set by `--backend gpu`) are not selection parameters: they
+        // make GPU results their own cache entries.
+        let mut json = ctx.params().clone();
+        let gpu = json.get("backend").and_then(|b| b.as_str()) == Some(GPU_BACKEND);
+        if let Some(map) = json.as_object_mut() {
+            map.remove("backend");
+            map.remove("device");
+        }
+        let params: ori_select::SelectParams = serde_json::from_value(json)
+            .map_err(|e| StageError::new(format!("bad parameters: {e}")))?;
         let mesh = mesh(ctx)?;
         let set = ReliefSet::decode(&ctx.input(MAPS)?)
             .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
-        let selection = ori_select::select(&mesh, &set, &params)
-            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let selection = if gpu {
+            crate::gpu_select::renderer()
+                .and_then(|r| crate::gpu_select::select(&mesh, &set, &params, r))
+                .map_err(|e| StageError::new(format!("{}: GPU selection: {e}", ctx.asset())))?
+        } else {
+            ori_select::select(&mesh, &set, &params)
+                .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?
+        };
         ctx.output(SELECTION, selection.encode());
         Ok(())
     }

@@ -1,0 +1,180 @@
+//! `cargo xtask bench remote`: a cold build of ../shared/models that fills a remote cache (a
+//! local nginx WebDAV server), then a build of the same models from an empty local cache that
+//! takes everything from it; times and the bytes the client moved.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use crate::nginx::Nginx;
+
+fn shared_models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
+}
+
+/// Copy a folder tree.
+fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
+    for entry in walkdir::WalkDir::new(from).sort_by_file_name() {
+        let entry = entry.map_err(|e| e.to_string())?;
+        let rel = entry.path().strip_prefix(from).map_err(|e| e.to_string())?;
+        let dest = to.join(rel);
+        if entry.file_type().is_dir() {
+            std::fs::create_dir_all(&dest).map_err(|e| e.to_string())?;
+        } else {
+            std::fs::copy(entry.path(), &dest).map_err(|e| format!("{}: {e}", dest.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// One build: its wall time and its output (summary included).
+fn build(config: &Path, cache: &Path, out: &Path) -> Result<(Duration, String), String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let start = Instant::now();
+    let output = Command::new(exe)
+        .args(["build-assets", "--quiet", "--no-report", "--config"])
+        .arg(config)
+        .arg("--cache")
+        .arg(cache)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .map_err(|e| e.to_string())?;
+    let elapsed = start.elapsed();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&output.stdout),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    if !output.status.success() {
+        return Err(format!("build failed:\n{text}"));
+    }
+    Ok((elapsed, text))
+}
+
+/// The summary's line starting with `prefix`.
+fn line<'a>(text: &'a str, prefix: &str) -> Result<&'a str, String> {
+    text.lines()
+        .find(|l| l.starts_with(prefix))
+        .ok_or_else(|| format!("no `{prefix}` line in:\n{text}"))
+}
+
+/// Jobs run, over every stage of the summary.
+fn jobs_ran(text: &str) -> usize {
+    [
+        "ingest", "views", "bake", "select", "plt", "compress", "package",
+    ]
+    .iter()
+    .filter_map(|s| line(text, &format!("{s} ")).ok())
+    .filter_map(|l| l.split_whitespace().nth(1)?.parse::<usize>().ok())
+    .sum()
+}
+
+/// Output bytes per stage over the action entries of a local cache (each blob counted once),
+/// e.g. `ingest 12.3 MB, views 0.1 MB, ...`.
+fn by_stage(cache: &Path) -> Result<String, String> {
+    let mut seen = std::collections::BTreeSet::new();
+    let mut sizes: Vec<(String, u64)> = Vec::new();
+    for entry in walkdir::WalkDir::new(cache.join("ac")).sort_by_file_name() {
+        let entry = entry.map_err(|e| e.to_string())?;
+        if !entry.file_type().is_file() {
+            continue;
+        }
+        let text = std::fs::read_to_string(entry.path()).map_err(|e| e.to_string())?;
+        let json = text.split_once('\n').map_or("", |(_, j)| j);
+        let value: serde_json::Value = serde_json::from_str(json).map_err(|e| e.to_string())?;
+        let stage = value["stage"].as_str().unwrap_or("?").to_string();
+        let mut bytes = 0;
+        for blob in value["outputs"]
+            .as_object()
+            .into_iter()
+            .flat_map(|o| o.values())
+        {
+            if seen.insert(blob["hash"].as_str().unwrap_or("").to_string()) {
+                bytes += blob["size"].as_u64().unwrap_or(0);
+            }
+        }
+        match sizes.iter_mut().find(|(s, _)| *s == stage) {
+            Some(s) => s.1 += bytes,
+            None => sizes.push((stage, bytes)),
+        }
+    }
+    Ok(sizes
+        .iter()
+        .map(|(s, b)| format!("{s} {:.1} MB", *b as f64 / 1e6))
+        .collect::<Vec<_>>()
+        .join(", "))
+}
+
+/// `baseline`: also time a cold build without the remote cache (the cost of uploading).
+pub fn run(baseline: bool) -> Result<(), String> {
+    let server = Nginx::start()?;
+    let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+    copy_tree(&shared_models(), &dir.path().join("assets"))?;
+    let with_remote = dir.path().join("remote.toml");
+    let plain = dir.path().join("plain.toml");
+    let assets = "[assets]\nroot = \"assets\"\n";
+    std::fs::write(&plain, assets).map_err(|e| e.to_string())?;
+    std::fs::write(
+        &with_remote,
+        format!(
+            "{assets}[cache.remote]\nurl = \"{}\"\nmode = \"read-write\"\ntimeout_s = 60\n",
+            server.url("cache")
+        ),
+    )
+    .map_err(|e| e.to_string())?;
+    std::thread::sleep(ori_graph::RACY_WINDOW + Duration::from_millis(100));
+    let p = |name: &str| dir.path().join(name);
+
+    if baseline {
+        let (t, _) = build(&plain, &p("cache-plain"), &p("out-plain"))?;
+        println!(
+            "cold build of ../shared/models without a remote cache: {:.2} s",
+            t.as_secs_f64()
+        );
+    }
+    let (cold, text) = build(&with_remote, &p("cache-a"), &p("out-a"))?;
+    println!(
+        "cold build, filling the remote cache:           {:.2} s ({} jobs ran)\n  {}",
+        cold.as_secs_f64(),
+        jobs_ran(&text),
+        line(&text, "remote cache")?
+    );
+    let (warm, text) = build(&with_remote, &p("cache-b"), &p("out-b"))?;
+    let ran = jobs_ran(&text);
+    println!(
+        "build from an empty local cache (all remote):   {:.2} s ({ran} jobs ran)\n  {}",
+        warm.as_secs_f64(),
+        line(&text, "remote cache")?
+    );
+    if ran != 0 {
+        return Err(format!("the build from the remote cache ran {ran} jobs"));
+    }
+    println!(
+        "  downloaded output bytes by stage: {}",
+        by_stage(&p("cache-b"))?
+    );
+    let (noop, _) = build(&with_remote, &p("cache-b"), &p("out-b"))?;
+    println!(
+        "then a no-op rebuild (local cache, no request): {:.2} s",
+        noop.as_secs_f64()
+    );
+    let release = |out: &str| std::fs::read(p(out).join("release.json")).map_err(|e| e.to_string());
+    if release("out-a")? != release("out-b")? {
+        return Err("the two releases differ".into());
+    }
+    ori_pipeline::release::verify(&p("out-b")).map_err(|e| e.join("\n"))?;
+    let stored: Vec<u64> = walkdir::WalkDir::new(server.root())
+        .into_iter()
+        .filter_map(Result::ok)
+        .filter(|e| e.file_type().is_file())
+        .filter_map(|e| e.metadata().ok().map(|m| m.len()))
+        .collect();
+    println!(
+        "releases identical; the server holds {} files, {:.2} MB ({} requests served)",
+        stored.len(),
+        stored.iter().sum::<u64>() as f64 / 1e6,
+        server.access_log().lines().count()
+    );
+    Ok(())
+}

@@ -1,0 +1,219 @@
+//! `cargo xtask preview PACKAGE`: the ORI drawn by the wgpu runtime renderer, the reference
+//! mesh with the same camera, and their difference, side by side (one row per direction).
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use ori_render::{Camera, GpuMesh, GpuOri, Image, Renderer};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The `.ori` package.
+    package: PathBuf,
+    /// View direction (object -> viewer), e.g. `0,0.3,1`.
+    #[arg(long, value_name = "X,Y,Z", conflicts_with = "turntable")]
+    dir: Option<String>,
+    /// N views around the vertical axis, 20 degrees above the horizon.
+    #[arg(long, value_name = "N")]
+    turntable: Option<u32>,
+    /// Edge of each picture in pixels.
+    #[arg(long, default_value_t = 512)]
+    size: u32,
+    /// Output PNG.
+    #[arg(long)]
+    out: PathBuf,
+    /// Pipeline configuration (its assets folder holds the source model).
+    #[arg(long, default_value = "pipeline.toml")]
+    config: PathBuf,
+    /// Assets folder (default: `[assets] root` of the configuration).
+    #[arg(long)]
+    assets: Option<PathBuf>,
+}
+
+/// Exit status 0: written; 1: the package, the adapter or a render failed; 2: bad options.
+pub fn run(args: Args) -> ExitCode {
+    let directions = match directions(&args) {
+        Ok(d) => d,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match preview(&args, &directions) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn directions(args: &Args) -> Result<Vec<[f64; 3]>, String> {
+    if args.size == 0 || args.size > 4096 {
+        return Err(format!("--size {} must be 1 to 4096", args.size));
+    }
+    if let Some(n) = args.turntable {
+        if n == 0 || n > 64 {
+            return Err(format!("--turntable {n} must be 1 to 64"));
+        }
+        let elevation = 20f64.to_radians();
+        return Ok((0..n)
+            .map(|k| {
+                let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+                [
+                    elevation.cos() * a.sin(),
+                    elevation.sin(),
+                    elevation.cos() * a.cos(),
+                ]
+            })
+            .collect());
+    }
+    let text = args.dir.as_deref().unwrap_or("0.3,0.3,1");
+    let parts: Vec<f64> = text
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("--dir {text:?}: expected three numbers, e.g. 0,0.3,1"))?;
+    let [x, y, z] = parts[..] else {
+        return Err(format!(
+            "--dir {text:?}: expected three numbers, e.g. 0,0.3,1"
+        ));
+    };
+    let len = (x * x + y * y + z * z).sqrt();
+    if !(len > 0.0 && len.is_finite()) {
+        return Err(format!("--dir {text:?} has no direction"));
+    }
+    Ok(vec![[x / len, y / len, z / len]])
+}
+
+/// The source model of a package, if it is where the configuration says and unchanged.
+pub fn source_mesh(
+    manifest: &ori_package::Manifest,
+    config: &Path,
+    assets: Option<PathBuf>,
+) -> Result<ori_mesh::Mesh, String> {
+    let root = match assets {
+        Some(a) => a,
+        None => {
+            let c = ori_pipeline::Config::load(config).map_err(|e| e.to_string())?;
+            c.resolve(&c.assets.root)
+        }
+    };
+    let path = root.join(&manifest.source.name);
+    let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if blake3::hash(&bytes).to_hex().as_str() != manifest.source.blake3 {
+        return Err(format!(
+            "{}: changed since the package was built",
+            path.display()
+        ));
+    }
+    Ok(ori_mesh::load_file(&path, &Default::default())
+        .map_err(|e| e.to_string())?
+        .mesh)
+}
+
+fn preview(args: &Args, directions: &[[f64; 3]]) -> Result<(), String> {
+    let bytes = std::fs::read(&args.package)
+        .map_err(|e| format!("{}: cannot read: {e}", args.package.display()))?;
+    let package =
+        ori_package::read(&bytes).map_err(|e| format!("{}: {e}", args.package.display()))?;
+    let renderer = Renderer::new().map_err(|e| e.to_string())?;
+    println!("adapter: {}", renderer.adapter_summary());
+    if !renderer.compressed_textures() {
+        println!("notice: the adapter cannot sample BC textures; they are decoded on the CPU");
+    }
+    let ori = renderer.load_package(&package).map_err(|e| e.to_string())?;
+    let mesh = match source_mesh(&package.manifest, &args.config, args.assets.clone()) {
+        Ok(mesh) => Some(renderer.load_mesh(&mesh).map_err(|e| e.to_string())?),
+        Err(e) => {
+            println!("no reference mesh ({e}): the ORI alone");
+            None
+        }
+    };
+    let size = args.size;
+    let columns = if mesh.is_some() { 3 } else { 1 };
+    let mut sheet = vec![255u8; (3 * size * columns * size * directions.len() as u32) as usize];
+    let stride = (3 * size * columns) as usize;
+    for (row, &dir) in directions.iter().enumerate() {
+        let (images, line) = row_images(&renderer, &ori, mesh.as_ref(), dir, size)?;
+        println!("{line}");
+        for (col, rgb) in images.iter().enumerate() {
+            for y in 0..size as usize {
+                let dst = (row * size as usize + y) * stride + col * 3 * size as usize;
+                let src = y * 3 * size as usize;
+                sheet[dst..dst + 3 * size as usize]
+                    .copy_from_slice(&rgb[src..src + 3 * size as usize]);
+            }
+        }
+    }
+    image::save_buffer_with_format(
+        &args.out,
+        &sheet,
+        size * columns,
+        size * directions.len() as u32,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("{}: {e}", args.out.display()))?;
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// One row: the ORI, and with a mesh the mesh and the difference (red: the mesh covers, the
+/// ORI misses; blue: the ORI covers, the mesh does not; both: the colour difference x 4).
+fn row_images(
+    renderer: &Renderer,
+    ori: &GpuOri,
+    mesh: Option<&GpuMesh>,
+    dir: [f64; 3],
+    size: u32,
+) -> Result<(Vec<Vec<u8>>, String), String> {
+    let (center, radius) = ori.bounding_sphere();
+    let camera = Camera::ortho_framing(center, radius, dir);
+    let drawn = renderer
+        .render_ori(ori, &camera, size, size)
+        .map_err(|e| e.to_string())?;
+    let impostors = ori.selection(dir).len();
+    let on_white = |img: &Image| -> Vec<u8> {
+        (0..img.len())
+            .flat_map(|i| if img.covered(i) { img.rgb(i) } else { [255; 3] })
+            .collect()
+    };
+    let Some(mesh) = mesh else {
+        let line = format!(
+            "dir {dir:.3?}: {impostors} impostor(s), {} px drawn",
+            drawn.coverage_count()
+        );
+        return Ok((vec![on_white(&drawn)], line));
+    };
+    let reference = renderer
+        .render_mesh(mesh, &camera, size, size)
+        .map_err(|e| e.to_string())?;
+    let (mut missed, mut extra) = (0, 0);
+    let difference: Vec<u8> = (0..drawn.len())
+        .flat_map(|i| match (reference.covered(i), drawn.covered(i)) {
+            (true, false) => {
+                missed += 1;
+                [255, 0, 0]
+            }
+            (false, true) => {
+                extra += 1;
+                [0, 0, 255]
+            }
+            (false, false) => [255; 3],
+            (true, true) => {
+                let (a, b) = (reference.rgb(i), drawn.rgb(i));
+                std::array::from_fn(|k| 255 - (a[k].abs_diff(b[k]) as u32 * 4).min(255) as u8)
+            }
+        })
+        .collect();
+    let line = format!(
+        "dir {dir:.3?}: {impostors} impostor(s); mesh {} px, ORI {} px, missed {missed}, added {extra}",
+        reference.coverage_count(),
+        drawn.coverage_count()
+    );
+    Ok((
+        vec![on_white(&drawn), on_white(&reference), difference],
+        line,
+    ))
+}
