@@ -14,6 +14,8 @@ struct Globals {
     // Orthographic (w = 0): xyz is the view direction towards the viewer.
     // Perspective (w = 1): xyz is the eye.
     view: vec4<f32>,
+    // How clip depth follows distance (ori.wgsl's option 5; unused here).
+    depth: vec4<f32>,
 };
 
 struct Material {

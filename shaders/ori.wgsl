@@ -17,11 +17,22 @@
 //      differ by more than the threshold (in codes);
 //   7. fragment: texel `hi` (normal, albedo), at relief depth `hi`.
 //
-// Priority between impostors (option 3, closest direction first) is "first writer wins"
-// with the stencil buffer: every impostor of one ORI draws with the ORI's stencil reference,
-// passes only where the stencil differs from it, and writes it whether the depth test passes
-// or fails. Discarded fragments write nothing. The fragment depth is the true depth of the
-// hit, so impostors composite with ordinary geometry through the depth buffer.
+// Priority between impostors, one of two rules per ORI (the pipeline's depth-stencil state
+// and the record's `bias` choose):
+//
+// - option 3 (closest direction first) is "first writer wins" with the stencil buffer: every
+//   impostor of one ORI draws with the ORI's stencil reference, passes only where the
+//   stencil differs from it, and writes it whether the depth test passes or fails. The
+//   fragment depth is the true depth of the hit, so impostors composite with ordinary
+//   geometry through the depth buffer.
+// - option 5 (biased depth, `bias.x > 0`): the least `depth - cos * bias.x` wins, `cos` the
+//   stored normal's z in the impostor frame, `bias.x` a world length (the depth range / 32).
+//   The fragment depth is the depth of the hit pushed away from the viewer by
+//   `(1 - cos) * bias.x` (the same order, never nearer than the hit), no stencil, depth test
+//   LESS, impostors in list order: the least biased depth wins, the earlier one on ties. The
+//   depth buffer then holds the biased depth; the depth target keeps the true depth.
+//
+// Discarded fragments write nothing.
 
 struct Globals {
     // World space to clip space (column-major).
@@ -31,6 +42,9 @@ struct Globals {
     // Orthographic (w = 0): xyz is the view direction towards the viewer.
     // Perspective (w = 1): xyz is the eye.
     view: vec4<f32>,
+    // How clip depth follows distance from the viewer (option 5's bias). Orthographic: x is
+    // clip depth per world unit. Perspective: depth = y - z / distance.
+    depth: vec4<f32>,
 };
 
 // One impostor as seen by this frame's camera (built on the CPU, `crates/ori-render/src/rays.rs`).
@@ -54,6 +68,8 @@ struct Impostor {
     bounds: vec4<f32>,
     // ... z0, z1 (codes); the map edge N in texels; the wall threshold in codes.
     depth_range: vec4<f32>,
+    // x: option 5's bias per unit cos, a world length (depth range / 32); 0 under option 3.
+    bias: vec4<f32>,
     // Texture array layer, projection (0 orthographic, 1 perspective), linear steps,
     // binary steps.
     info: vec4<u32>,
@@ -247,5 +263,17 @@ fn fs_main(in: VsOut) -> FsOut {
     out.depth = depth;
     out.source = imp.ids.x;
     out.frag_depth = depth;
+    let shift = imp.bias.x;
+    if shift > 0.0 {
+        // Option 5: the hit pushed away from the viewer by (1 - cos) * shift, cos = nz.
+        let away = shift * (1.0 - nz);
+        var biased: f32;
+        if globals.view.w == 0.0 {
+            biased = depth + away * globals.depth.x;
+        } else {
+            biased = globals.depth.y - globals.depth.z / (clip.w + away);
+        }
+        out.frag_depth = min(biased, 1.0);
+    }
     return out;
 }

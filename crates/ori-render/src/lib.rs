@@ -37,13 +37,26 @@
 //!   evaluator's bit for bit. Step counts and the wall threshold are per-impostor uniforms,
 //!   taken from the package's `params.select` (defaults 16, 7, 0.125). The parity test holds
 //!   GPU and CPU together (coverage, colour, depth, which impostor drew each pixel).
-//! - **Priority: closest direction first (option 3), "first writer wins".** The selected
-//!   impostors draw in table order with the ORI's stencil reference; a fragment passes only
-//!   where the stencil is not yet that reference and claims the pixel whether or not the
-//!   depth test passes. So the first impostor in the list that produces a fragment owns the
-//!   pixel, as in the evaluator. Up to 255 ORIs per render (8-bit stencil).
-//! - **True depth.** Every impostor fragment writes the depth of its hit point, so ORIs and
-//!   meshes composite through one depth buffer in any draw order.
+//! - **Priority, per ORI ([`GpuOri::set_priority`]), as the evaluator's
+//!   `ori_eval::Priority`.**
+//!   - *Closest direction first (option 3, the default), "first writer wins".* The selected
+//!     impostors draw in table order with the ORI's stencil reference; a fragment passes
+//!     only where the stencil is not yet that reference and claims the pixel whether or not
+//!     the depth test passes. So the first impostor in the list that produces a fragment
+//!     owns the pixel, as in the evaluator. Up to 255 ORIs per render (8-bit stencil).
+//!   - *Biased depth (option 5, [`Priority::BiasedDepth`]).* The least `depth - cos / 32`
+//!     wins, `cos` the stored normal's component along the impostor direction, depth in
+//!     units of [`GpuOri::depth_range`] (the evaluator's unit when set to the evaluation
+//!     view's range); ties go to the earlier impostor. No stencil: each fragment writes the
+//!     depth of its hit pushed away from the viewer by `(1 - cos) / 32` of that range (the
+//!     same order, never nearer than the hit), the depth test is LESS and the impostors draw
+//!     in list order, so the least biased depth wins and the earlier impostor keeps a tie.
+//! - **True depth.** Under option 3 every impostor fragment writes the depth of its hit
+//!   point, so ORIs and meshes composite through one depth buffer in any draw order. Under
+//!   option 5 the depth buffer holds the *biased* depth (the true depth plus up to 1/32 of
+//!   the depth range): a mesh surface less than that in front of or behind an impostor hit
+//!   may composite wrongly against it. [`Image::depth`] holds the true depth under both
+//!   rules.
 //! - **Coverage is exact-conservative.** Each impostor draws the back faces of its occupied
 //!   relief box (grown by 1/16 texel for the rasteriser only), so every pixel whose ray
 //!   meets the box runs the shader once, however skewed the view, and the shader clips
@@ -70,6 +83,9 @@ pub use image::{Image, SOURCE_MESH, SOURCE_NONE};
 pub use mesh::GpuMesh;
 pub use ori::GpuOri;
 pub use renderer::{Renderer, RendererOptions};
+/// The bias of option 5 ([`Priority::BiasedDepth`]): `cos / OPTION5_BIAS_DIVISOR` of the
+/// depth range, as `ori_eval`'s evaluator.
+const OPTION5_BIAS_DIVISOR: f64 = 32.0;
 /// The wgpu version this crate is built on, for callers that use [`Renderer::device`].
 pub use wgpu;
 
@@ -119,6 +135,21 @@ impl MarchParams {
             wall_threshold: threshold,
         }
     }
+}
+
+/// Which fragment wins where several impostors of one ORI produce one (the evaluator's
+/// `ori_eval::Priority`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Priority {
+    /// Option 3: the impostor closest to the view direction (first in the selection's
+    /// order), whatever its depth: "first writer wins" in the stencil buffer.
+    #[default]
+    ClosestDirection,
+    /// Option 5: the least `view depth - cos(impostor direction, stored normal) / 32`, depth
+    /// in units of the ORI's depth range ([`GpuOri::depth_range`]); ties go to the earlier
+    /// impostor in the selection's order. Drawn with the biased depth in the depth buffer
+    /// (see the crate's invariants).
+    BiasedDepth,
 }
 
 /// One thing to draw in [`Renderer::render`].

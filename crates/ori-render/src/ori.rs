@@ -4,7 +4,7 @@
 use ori_package::{Manifest, Package, TextureFormat};
 use ori_texture::{Ktx2, VkFormat};
 
-use crate::{MarchParams, RenderError};
+use crate::{MarchParams, Priority, RenderError};
 
 /// An ORI ready to draw: made by [`crate::Renderer::load_package`].
 ///
@@ -18,6 +18,10 @@ pub struct GpuOri {
     /// The 320 evaluation directions, in the selection table's order.
     directions: Vec<[f64; 3]>,
     pub(crate) march: MarchParams,
+    pub(crate) priority: Priority,
+    /// World length that option 5's depth is measured in; `None`: the bounding sphere's
+    /// diameter.
+    depth_range: Option<f64>,
     compressed: bool,
     pub(crate) bind_group: wgpu::BindGroup,
     _textures: [wgpu::Texture; 3],
@@ -81,6 +85,8 @@ impl GpuOri {
             manifest: manifest.clone(),
             directions,
             march: MarchParams::from_manifest(manifest),
+            priority: Priority::default(),
+            depth_range: None,
             compressed,
             bind_group,
             _textures: [depth, normal, albedo],
@@ -106,6 +112,33 @@ impl GpuOri {
     /// Draw with other search parameters.
     pub fn set_march(&mut self, march: MarchParams) {
         self.march = march;
+    }
+
+    /// The priority rule between this ORI's impostors (default
+    /// [`Priority::ClosestDirection`]).
+    pub fn priority(&self) -> Priority {
+        self.priority
+    }
+
+    /// Draw with another priority rule.
+    pub fn set_priority(&mut self, priority: Priority) {
+        self.priority = priority;
+    }
+
+    /// The world length that is one unit of depth for [`Priority::BiasedDepth`] (its bias is
+    /// `cos / 32` of it): the one set with [`GpuOri::set_depth_range`], else the bounding
+    /// sphere's diameter. The evaluator (`ori_eval`) measures depth in the evaluation view's
+    /// range, the object's extent along the view direction (`OrthoView::near - far`): set
+    /// that to reproduce an evaluation view exactly.
+    pub fn depth_range(&self) -> f64 {
+        self.depth_range
+            .unwrap_or(2.0 * self.manifest.bounding_sphere.radius)
+    }
+
+    /// Set the unit of depth of [`Priority::BiasedDepth`] (a positive, finite world
+    /// length), or `None` for the bounding sphere's diameter.
+    pub fn set_depth_range(&mut self, range: Option<f64>) {
+        self.depth_range = range.filter(|r| r.is_finite() && *r > 0.0);
     }
 
     /// The 320 evaluation directions of the selection table, in its order

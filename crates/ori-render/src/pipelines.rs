@@ -1,6 +1,8 @@
-//! The bind group layouts and the two render pipelines: `shaders/ori.wgsl` (impostors,
-//! first-writer-wins stencil) and `shaders/mesh.wgsl` (reference meshes).
+//! The bind group layouts and the render pipelines: `shaders/ori.wgsl` (impostors, option 3
+//! with a first-writer-wins stencil, option 5 with the biased depth and the depth test) and
+//! `shaders/mesh.wgsl` (reference meshes).
 
+use crate::Priority;
 use crate::mesh::Vertex;
 use crate::targets::{COLOR, DEPTH_OUT, DEPTH_STENCIL, SOURCE};
 
@@ -109,7 +111,13 @@ fn color_targets() -> [Option<wgpu::ColorTargetState>; 3] {
     })
 }
 
-pub(crate) fn ori_pipeline(device: &wgpu::Device, layouts: &Layouts) -> wgpu::RenderPipeline {
+/// The ORI pipeline of one priority rule: option 3 with the first-writer-wins stencil,
+/// option 5 with the depth test alone (the fragment writes the biased depth).
+pub(crate) fn ori_pipeline(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    priority: Priority,
+) -> wgpu::RenderPipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("ori.wgsl"),
         source: wgpu::ShaderSource::Wgsl(ORI_SHADER.into()),
@@ -128,9 +136,24 @@ pub(crate) fn ori_pipeline(device: &wgpu::Device, layouts: &Layouts) -> wgpu::Re
         depth_fail_op: wgpu::StencilOperation::Replace,
         pass_op: wgpu::StencilOperation::Replace,
     };
+    let stencil = match priority {
+        Priority::ClosestDirection => wgpu::StencilState {
+            front: first_writer,
+            back: first_writer,
+            read_mask: 0xff,
+            write_mask: 0xff,
+        },
+        // Option 5 leaves the stencil alone: the least biased depth wins through the depth
+        // test (LESS, so the earlier impostor keeps a tie).
+        Priority::BiasedDepth => wgpu::StencilState::default(),
+    };
+    let label = match priority {
+        Priority::ClosestDirection => "ori",
+        Priority::BiasedDepth => "ori (biased depth)",
+    };
     let targets = color_targets();
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("ori"),
+        label: Some(label),
         layout: Some(&layout),
         vertex: wgpu::VertexState {
             module: &module,
@@ -150,12 +173,7 @@ pub(crate) fn ori_pipeline(device: &wgpu::Device, layouts: &Layouts) -> wgpu::Re
             format: DEPTH_STENCIL,
             depth_write_enabled: Some(true),
             depth_compare: Some(wgpu::CompareFunction::Less),
-            stencil: wgpu::StencilState {
-                front: first_writer,
-                back: first_writer,
-                read_mask: 0xff,
-                write_mask: 0xff,
-            },
+            stencil,
             bias: wgpu::DepthBiasState::default(),
         }),
         multisample: wgpu::MultisampleState::default(),

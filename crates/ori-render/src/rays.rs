@@ -31,6 +31,9 @@ pub(crate) struct ImpostorRecord {
     ry: [f32; 4],
     bounds: [f32; 4],
     depth_range: [f32; 4],
+    /// x: option 5's bias per unit cos, a world length (`depth range / 32`); 0 under option
+    /// 3 (the fragment depth is then the true depth).
+    pub bias: [f32; 4],
     info: [u32; 4],
     ids: [u32; 4],
 }

@@ -12,7 +12,7 @@ use crate::ori::GpuOri;
 use crate::pipelines::{Layouts, mesh_pipeline, ori_pipeline};
 use crate::rays::{self, ImpostorRecord, Slot};
 use crate::targets::Targets;
-use crate::{Draw, RenderError};
+use crate::{Draw, OPTION5_BIAS_DIVISOR, Priority, RenderError};
 
 /// How to set the renderer up.
 #[derive(Clone, Debug)]
@@ -41,6 +41,9 @@ struct Globals {
     world_to_clip: [[f32; 4]; 4],
     light: [f32; 4],
     view: [f32; 4],
+    /// How clip depth follows distance from the viewer (for option 5's bias). Orthographic:
+    /// x = clip depth per world unit. Perspective: y = a, z = b of `depth = a - b / dist`.
+    depth: [f32; 4],
 }
 
 /// A headless wgpu device with the ORI and mesh pipelines.
@@ -53,6 +56,8 @@ pub struct Renderer {
     maps_layout: wgpu::BindGroupLayout,
     material_layout: wgpu::BindGroupLayout,
     ori_pipeline: wgpu::RenderPipeline,
+    /// Option 5: biased depth, depth test only.
+    ori_biased_pipeline: wgpu::RenderPipeline,
     mesh_pipeline: wgpu::RenderPipeline,
     max_size: u32,
 }
@@ -108,7 +113,8 @@ impl Renderer {
         .map_err(|e| RenderError::Device(e.to_string()))?;
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let layouts = Layouts::new(&device);
-        let ori_pipeline = ori_pipeline(&device, &layouts);
+        let ori_biased_pipeline = ori_pipeline(&device, &layouts, Priority::BiasedDepth);
+        let ori_pipeline = ori_pipeline(&device, &layouts, Priority::ClosestDirection);
         let mesh_pipeline = mesh_pipeline(&device, &layouts);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(e.to_string()));
@@ -122,6 +128,7 @@ impl Renderer {
             maps_layout: layouts.maps,
             material_layout: layouts.material,
             ori_pipeline,
+            ori_biased_pipeline,
             mesh_pipeline,
             max_size: limits.max_texture_dimension_2d,
         })
@@ -259,10 +266,22 @@ impl Renderer {
                 [eye[0] as f32, eye[1] as f32, eye[2] as f32, 1.0]
             }
         };
+        let depth = match camera.projection {
+            crate::Projection::Orthographic { near, far, .. } => {
+                [(1.0 / (near - far)) as f32, 0.0, 0.0, 0.0]
+            }
+            crate::Projection::Perspective { near, far, .. } => [
+                0.0,
+                (far / (far - near)) as f32,
+                (far * near / (far - near)) as f32,
+                0.0,
+            ],
+        };
         let globals = Globals {
             world_to_clip: to_gpu(&camera.world_to_clip(width, height)),
             light: [light[0] as f32, light[1] as f32, light[2] as f32, 0.0],
             view,
+            depth,
         };
         let globals = buffer(
             device,
@@ -316,7 +335,12 @@ impl Renderer {
                         if records.is_empty() {
                             continue;
                         }
-                        pass.set_pipeline(&self.ori_pipeline);
+                        // Option 5 draws in the same order with the depth test alone: the
+                        // least biased depth wins, the earlier impostor on ties (LESS).
+                        pass.set_pipeline(match ori.priority {
+                            Priority::ClosestDirection => &self.ori_pipeline,
+                            Priority::BiasedDepth => &self.ori_biased_pipeline,
+                        });
                         pass.set_bind_group(0, &frame, &[]);
                         pass.set_bind_group(1, &ori.bind_group, &[]);
                         pass.set_stencil_reference(*stencil);
@@ -380,6 +404,10 @@ fn plan<'a>(
             ));
         }
         let m = &ori.manifest;
+        let bias = match ori.priority {
+            Priority::ClosestDirection => 0.0,
+            Priority::BiasedDepth => (ori.depth_range() / OPTION5_BIAS_DIVISOR) as f32,
+        };
         let start = plan.records.len() as u32;
         for &i in subset {
             let imp = m.impostors.get(usize::from(i)).ok_or_else(|| {
@@ -392,9 +420,10 @@ fn plan<'a>(
                 layer: u32::from(i),
                 index: i,
             };
-            if let Some(r) =
+            if let Some(mut r) =
                 rays::record(imp, m.resolution, camera, width, height, slot, &ori.march)
             {
+                r.bias[0] = bias;
                 plan.records.push(r);
             }
         }
