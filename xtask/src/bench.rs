@@ -162,7 +162,7 @@ fn noop_rebuild(assets: usize, runs: usize) -> Result<(), String> {
     Ok(())
 }
 
-fn shared_models() -> PathBuf {
+pub(crate) fn shared_models() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
 }
 
@@ -264,7 +264,7 @@ fn select(runs: usize) -> Result<(), String> {
 }
 
 /// Copy a folder tree.
-fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
+pub(crate) fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
     for entry in walkdir::WalkDir::new(from).sort_by_file_name() {
         let entry = entry.map_err(|e| e.to_string())?;
         let rel = entry.path().strip_prefix(from).map_err(|e| e.to_string())?;

@@ -2,30 +2,12 @@
 //! local nginx WebDAV server), then a build of the same models from an empty local cache that
 //! takes everything from it; times and the bytes the client moved.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
+use crate::bench::{copy_tree, shared_models};
 use crate::nginx::Nginx;
-
-fn shared_models() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
-}
-
-/// Copy a folder tree.
-fn copy_tree(from: &Path, to: &Path) -> Result<(), String> {
-    for entry in walkdir::WalkDir::new(from).sort_by_file_name() {
-        let entry = entry.map_err(|e| e.to_string())?;
-        let rel = entry.path().strip_prefix(from).map_err(|e| e.to_string())?;
-        let dest = to.join(rel);
-        if entry.file_type().is_dir() {
-            std::fs::create_dir_all(&dest).map_err(|e| e.to_string())?;
-        } else {
-            std::fs::copy(entry.path(), &dest).map_err(|e| format!("{}: {e}", dest.display()))?;
-        }
-    }
-    Ok(())
-}
 
 /// One build: its wall time and its output (summary included).
 fn build(config: &Path, cache: &Path, out: &Path) -> Result<(Duration, String), String> {
