@@ -19,6 +19,9 @@ pub struct Args {
     /// Relief-map resolution.
     #[arg(long, default_value_t = 256)]
     resolution: u32,
+    /// Bake sub-samples per texel edge (1, 2 or 4).
+    #[arg(long, default_value_t = 2)]
+    supersample: u32,
     /// The `best:M` rule of the last column.
     #[arg(long, default_value = "best:6")]
     best: Rule,
@@ -78,6 +81,7 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
     let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
     let bake = ori_bake::BakeParams {
         resolution: args.resolution,
+        supersample: args.supersample,
         ..Default::default()
     };
     let set = ori_bake::bake(&mesh, &plan.directions, &bake).map_err(|e| e.to_string())?;
