@@ -17,6 +17,7 @@
 //! colour of a surface point is `factor x texture(uv) x vertex colour`, multiplied in linear space.
 
 mod builder;
+mod clip;
 mod codec;
 mod error;
 mod gltf_load;
@@ -25,6 +26,7 @@ mod obj;
 mod ply;
 mod texture;
 
+pub use clip::clip_to_box;
 pub use codec::DecodeError;
 pub use error::{ErrorKind, MeshError};
 pub use normals::angle_weighted_normals;
