@@ -3,8 +3,8 @@
 
 use crate::validate::{check_manifest, check_texture, hash_hex, is_hash_hex, manifest_bytes};
 use crate::{
-    ALIGN, FORMAT_VERSION, ImpostorTextures, MAGIC, Manifest, Package, PackageError, TextureFormat,
-    TextureRef,
+    ALIGN, FORMAT_VERSION, HIERARCHY_FORMAT_VERSION, ImpostorTextures, MAGIC, Manifest, Package,
+    PackageError, TextureFormat, TextureRef,
 };
 
 /// Bytes of the fixed header; the manifest starts here.
@@ -78,27 +78,13 @@ pub fn write(manifest: &Manifest, textures: &[ImpostorTextures]) -> Result<Vec<u
         }
     }
 
-    // The offsets are in the manifest, whose length sets where the payload starts: iterate
-    // from the smallest payload offset. Longer offsets only lengthen the manifest, so the
-    // payload offset only grows and settles on the smallest consistent layout in a few steps.
-    let overflow = || PackageError::Layout("package larger than 2^64 bytes".into());
-    let mut payload = align_up(HEADER_LEN).ok_or_else(overflow)?;
-    let (json, end) = loop {
-        let mut pos = payload;
-        for r in refs_mut(&mut m) {
-            r.offset = align_up(pos).ok_or_else(overflow)?;
-            pos = r.offset.checked_add(r.length).ok_or_else(overflow)?;
+    let lengths: Vec<u64> = refs(&m).map(|(_, _, r)| r.length).collect();
+    let (json, offsets, end) = place(&lengths, |offsets| {
+        for (r, &offset) in refs_mut(&mut m).zip(offsets) {
+            r.offset = offset;
         }
-        let json = manifest_bytes(&m)?;
-        let needed = (json.len() as u64)
-            .checked_add(HEADER_LEN)
-            .and_then(align_up)
-            .ok_or_else(overflow)?;
-        if needed == payload {
-            break (json, pos);
-        }
-        payload = needed;
-    };
+        manifest_bytes(&m)
+    })?;
     // The JSON must read back as the same manifest, or `read` would reject the file.
     match serde_json::from_slice::<Manifest>(&json) {
         Ok(back) if back == m => {}
@@ -110,32 +96,79 @@ pub fn write(manifest: &Manifest, textures: &[ImpostorTextures]) -> Result<Vec<u
             ));
         }
     }
+    let data = textures.iter().flat_map(|t| t.maps().map(|(_, b)| b));
+    assemble(
+        FORMAT_VERSION,
+        &json,
+        offsets.iter().copied().zip(data),
+        end,
+    )
+}
 
-    let total = usize::try_from(end).map_err(|_| overflow())?;
+/// Lays out parts of `lengths` after a manifest whose bytes depend on the parts' offsets
+/// (`json(offsets)`): each part at the first [`ALIGN`]ed offset after the previous one, the
+/// first after the manifest. Returns the manifest bytes, the offsets and the file's end.
+///
+/// The manifest's length sets where the payload starts: iterate from the smallest payload
+/// offset. Longer offsets only lengthen the manifest, so the payload offset only grows and
+/// settles on the smallest consistent layout in a few steps.
+pub(crate) fn place(
+    lengths: &[u64],
+    mut json: impl FnMut(&[u64]) -> Result<Vec<u8>, PackageError>,
+) -> Result<(Vec<u8>, Vec<u64>, u64), PackageError> {
+    let overflow = || PackageError::Layout("package larger than 2^64 bytes".into());
+    let mut payload = align_up(HEADER_LEN).ok_or_else(overflow)?;
+    loop {
+        let mut pos = payload;
+        let mut offsets = Vec::with_capacity(lengths.len());
+        for &length in lengths {
+            let offset = align_up(pos).ok_or_else(overflow)?;
+            offsets.push(offset);
+            pos = offset.checked_add(length).ok_or_else(overflow)?;
+        }
+        let bytes = json(&offsets)?;
+        let needed = (bytes.len() as u64)
+            .checked_add(HEADER_LEN)
+            .and_then(align_up)
+            .ok_or_else(overflow)?;
+        if needed == payload {
+            return Ok((bytes, offsets, pos));
+        }
+        payload = needed;
+    }
+}
+
+/// The file: header (version `version`), manifest, then each `(offset, bytes)` part at its
+/// offset with zero padding before it; `end` is the file's length.
+pub(crate) fn assemble<'a>(
+    version: u32,
+    json: &[u8],
+    parts: impl Iterator<Item = (u64, &'a [u8])>,
+    end: u64,
+) -> Result<Vec<u8>, PackageError> {
+    let total = usize::try_from(end)
+        .map_err(|_| PackageError::Layout("package larger than memory".into()))?;
+    let payload = align_up(HEADER_LEN + json.len() as u64).unwrap_or(u64::MAX);
     let mut out = Vec::with_capacity(total);
     out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes()); // flags
     out.extend_from_slice(&(json.len() as u64).to_le_bytes());
-    out.extend_from_slice(blake3::hash(&json).as_bytes());
+    out.extend_from_slice(blake3::hash(json).as_bytes());
     out.extend_from_slice(&payload.to_le_bytes());
-    out.extend_from_slice(&json);
-    let data = textures.iter().flat_map(|t| t.maps().map(|(_, b)| b));
-    for ((_, _, r), bytes) in refs(&m).zip(data) {
-        out.resize(r.offset as usize, 0);
+    out.extend_from_slice(json);
+    for (offset, bytes) in parts {
+        out.resize(offset as usize, 0);
         out.extend_from_slice(bytes);
     }
     debug_assert_eq!(out.len(), total);
     Ok(out)
 }
 
-/// Reads a package and checks everything: header, manifest hash, canonical JSON, the
-/// manifest's rules, the layout (alignment, packing, zero padding, no trailing bytes), every
-/// texture's blake3, and that every texture is a KTX2 file of the declared format and size.
-///
-/// Never panics, and never allocates more than a small multiple of `bytes.len()`, whatever
-/// the input.
-pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
+/// Checks the header and the manifest's framing (magic, length, hash, payload offset, zero
+/// padding) and returns the format version, the manifest bytes and the payload offset; the
+/// caller checks the version.
+pub(crate) fn frame(bytes: &[u8]) -> Result<(u32, &[u8], usize), PackageError> {
     let have = bytes.len() as u64;
     let n = bytes.len().min(MAGIC.len());
     if bytes[..n] != MAGIC[..n] {
@@ -149,7 +182,7 @@ pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
         });
     }
     let version = u32_at(bytes, 8);
-    if version != FORMAT_VERSION {
+    if version != FORMAT_VERSION && version != HIERARCHY_FORMAT_VERSION {
         return Err(PackageError::UnsupportedVersion(version));
     }
     let flags = u32_at(bytes, 12);
@@ -194,7 +227,22 @@ pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
         return Err(PackageError::ManifestHash);
     }
     check_padding(bytes, manifest_end, payload, "after the manifest")?;
+    Ok((version, json, payload))
+}
 
+/// Reads a package and checks everything: header, manifest hash, canonical JSON, the
+/// manifest's rules, the layout (alignment, packing, zero padding, no trailing bytes), every
+/// texture's blake3, and that every texture is a KTX2 file of the declared format and size.
+///
+/// Never panics, and never allocates more than a small multiple of `bytes.len()`, whatever
+/// the input.
+pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
+    let (version, json, payload) = frame(bytes)?;
+    match version {
+        FORMAT_VERSION => {}
+        HIERARCHY_FORMAT_VERSION => return Err(PackageError::IsHierarchy),
+        v => return Err(PackageError::UnsupportedVersion(v)),
+    }
     let manifest: Manifest = serde_json::from_slice(json)
         .map_err(|e| PackageError::Manifest(format!("not valid manifest JSON: {e}")))?;
     if manifest_bytes(&manifest)? != json {
@@ -214,49 +262,12 @@ pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
         }
     }
 
-    // Layout: each texture at the first aligned offset after the previous part.
-    let mut pos = payload as u64;
-    for (i, map, r) in refs(&manifest) {
-        let place = format!("impostor {i} {map} texture");
-        if r.offset % ALIGN != 0 {
-            return Err(PackageError::Layout(format!(
-                "{place} starts at {}, not a multiple of {ALIGN}",
-                r.offset
-            )));
-        }
-        if r.offset < pos {
-            return Err(PackageError::Layout(format!(
-                "{place} starts at {}, inside the previous part (which ends at {pos})",
-                r.offset
-            )));
-        }
-        let expected = align_up(pos).unwrap_or(u64::MAX);
-        if r.offset != expected {
-            return Err(PackageError::Layout(format!(
-                "{place} starts at {}, expected {expected} (textures are packed at the next \
-                 aligned offset)",
-                r.offset
-            )));
-        }
-        let end = r.offset.checked_add(r.length).ok_or_else(|| {
-            PackageError::Layout(format!("{place} length {} is impossibly large", r.length))
-        })?;
-        if end > have {
-            return Err(PackageError::Truncated {
-                what: "texture data",
-                need: end,
-                have,
-            });
-        }
-        check_padding(bytes, pos as usize, r.offset as usize, "before a texture")?;
-        pos = end;
-    }
-    if pos != have {
-        return Err(PackageError::Layout(format!(
-            "{} trailing bytes after the last texture (which ends at {pos})",
-            have - pos
-        )));
-    }
+    check_packed(
+        bytes,
+        payload,
+        refs(&manifest)
+            .map(|(i, map, r)| (format!("impostor {i} {map} texture"), r.offset, r.length)),
+    )?;
 
     let mut textures = Vec::with_capacity(manifest.impostors.len());
     for (i, imp) in manifest.impostors.iter().enumerate() {
@@ -273,6 +284,56 @@ pub fn read(bytes: &[u8]) -> Result<Package, PackageError> {
         });
     }
     Ok(Package { manifest, textures })
+}
+
+/// Checks the layout of the parts after the manifest: each `(name, offset, length)` at the
+/// first aligned offset after the previous part (the first after `payload`), within the file,
+/// zero padding between, and nothing after the last.
+pub(crate) fn check_packed(
+    bytes: &[u8],
+    payload: usize,
+    parts: impl Iterator<Item = (String, u64, u64)>,
+) -> Result<(), PackageError> {
+    let have = bytes.len() as u64;
+    let mut pos = payload as u64;
+    for (place, offset, length) in parts {
+        if offset % ALIGN != 0 {
+            return Err(PackageError::Layout(format!(
+                "{place} starts at {offset}, not a multiple of {ALIGN}"
+            )));
+        }
+        if offset < pos {
+            return Err(PackageError::Layout(format!(
+                "{place} starts at {offset}, inside the previous part (which ends at {pos})"
+            )));
+        }
+        let expected = align_up(pos).unwrap_or(u64::MAX);
+        if offset != expected {
+            return Err(PackageError::Layout(format!(
+                "{place} starts at {offset}, expected {expected} (parts are packed at the next \
+                 aligned offset)"
+            )));
+        }
+        let end = offset.checked_add(length).ok_or_else(|| {
+            PackageError::Layout(format!("{place} length {length} is impossibly large"))
+        })?;
+        if end > have {
+            return Err(PackageError::Truncated {
+                what: "texture data",
+                need: end,
+                have,
+            });
+        }
+        check_padding(bytes, pos as usize, offset as usize, "before a part")?;
+        pos = end;
+    }
+    if pos != have {
+        return Err(PackageError::Layout(format!(
+            "{} trailing bytes after the last part (which ends at {pos})",
+            have - pos
+        )));
+    }
+    Ok(())
 }
 
 /// Checks that `bytes[start..end]` (padding) is all zero.

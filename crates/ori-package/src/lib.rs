@@ -30,6 +30,7 @@
 #![warn(missing_docs)]
 
 mod explode;
+mod hierarchy;
 mod layout;
 mod validate;
 
@@ -39,14 +40,22 @@ use ori_texture::{Ktx2, VkFormat};
 use serde::{Deserialize, Serialize};
 
 pub use explode::explode;
+pub use hierarchy::{
+    AnyPackage, Hierarchy, HierarchyManifest, HierarchyNode, MAX_NODES, PartRef, SplitKind,
+    read_any, read_hierarchy, write_hierarchy,
+};
 pub use layout::{read, write};
 
 /// The file's first 8 bytes. The `\r\n` catches a transfer in text mode (line endings
 /// rewritten).
 pub const MAGIC: [u8; 8] = *b"ORIPKG\r\n";
 
-/// The version of the byte layout and manifest schema this crate writes and reads.
+/// The version of the byte layout and manifest schema of a single-ORI package.
 pub const FORMAT_VERSION: u32 = 1;
+
+/// The version of a hierarchy package: the same header, a tree manifest, and a
+/// version-1 package per node ([`read_hierarchy`]).
+pub const HIERARCHY_FORMAT_VERSION: u32 = 2;
 
 /// Every texture starts at a multiple of this many bytes from the start of the file (GPU
 /// upload alignment); so does the payload.
@@ -294,8 +303,16 @@ pub enum PackageError {
     )]
     BadMagic,
     /// The header's format version is not [`FORMAT_VERSION`].
-    #[error("unsupported package format version {0} (this reader reads version {FORMAT_VERSION})")]
+    #[error(
+        "unsupported package format version {0} (this reader reads versions {FORMAT_VERSION} \
+         and {HIERARCHY_FORMAT_VERSION})"
+    )]
     UnsupportedVersion(u32),
+    /// [`read`] was given a hierarchy (version 2); [`read_hierarchy`] or [`read_any`] reads it.
+    #[error(
+        "a hierarchy package (format version {HIERARCHY_FORMAT_VERSION}): read it with read_hierarchy or read_any"
+    )]
+    IsHierarchy,
     /// The file ends before a part it declares.
     #[error("truncated file: the {what} needs {need} bytes, the file has {have}")]
     Truncated {

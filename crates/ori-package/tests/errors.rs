@@ -261,11 +261,17 @@ fn header_errors() {
         })
     ));
 
+    // Version 2 is a hierarchy: `read` says so (and `read_hierarchy` then finds a version-1
+    // manifest, which is no tree); an unknown version is named.
     let mut v2 = bytes.clone();
     v2[8] = 2;
-    let err = read(&v2).unwrap_err();
-    assert!(matches!(err, PackageError::UnsupportedVersion(2)));
-    assert!(err.to_string().contains("version 2"), "{err}");
+    assert!(matches!(read(&v2), Err(PackageError::IsHierarchy)));
+    assert!(ori_package::read_hierarchy(&v2).is_err());
+    let mut v3 = bytes.clone();
+    v3[8] = 3;
+    let err = read(&v3).unwrap_err();
+    assert!(matches!(err, PackageError::UnsupportedVersion(3)));
+    assert!(err.to_string().contains("version 3"), "{err}");
 
     let mut flags = bytes.clone();
     flags[12] = 1;
