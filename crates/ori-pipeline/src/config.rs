@@ -190,6 +190,9 @@ pub struct StageParams {
     /// `[plt]`: the target of `bake.resolution = "auto"`.
     #[serde(default)]
     pub plt: ori_plt::PltParams,
+    /// `[hierarchy]`: a tree of ORIs instead of one (off by default).
+    #[serde(default)]
+    pub hierarchy: crate::hierarchy::HierarchyParams,
     /// `bake.resolution = "auto"`: the build picks the resolution (see `ori_plt::auto`);
     /// `bake.resolution` then holds the default until it does.
     #[serde(skip)]
@@ -241,6 +244,8 @@ struct ConfigFile {
     #[serde(default)]
     plt: Option<toml::Table>,
     #[serde(default)]
+    hierarchy: Option<toml::Table>,
+    #[serde(default)]
     overrides: Vec<OverrideFile>,
 }
 
@@ -261,6 +266,8 @@ struct OverrideFile {
     compress: Option<toml::Table>,
     #[serde(default)]
     plt: Option<toml::Table>,
+    #[serde(default)]
+    hierarchy: Option<toml::Table>,
 }
 
 /// A glob where `*` stays within one path component and `**` crosses them.
@@ -272,7 +279,7 @@ pub(crate) fn glob(pattern: &str) -> Result<GlobMatcher, globset::Error> {
 }
 
 /// The stage sections present in a file (or an override), by name.
-fn stage_tables(sections: [(&str, Option<toml::Table>); 6]) -> toml::Table {
+fn stage_tables(sections: [(&str, Option<toml::Table>); 7]) -> toml::Table {
     let mut t = toml::Table::new();
     for (name, section) in sections {
         if let Some(section) = section {
@@ -311,6 +318,7 @@ fn to_params(mut table: toml::Table) -> Result<StageParams, String> {
     params.views.validate().map_err(|e| e.to_string())?;
     params.bake.validate().map_err(|e| e.to_string())?;
     params.select.validate().map_err(|e| e.to_string())?;
+    params.hierarchy.validate()?;
     Ok(params)
 }
 
@@ -339,6 +347,7 @@ impl Config {
             ("select", file.select),
             ("compress", file.compress),
             ("plt", file.plt),
+            ("hierarchy", file.hierarchy),
         ]);
         to_params(stages.clone()).map_err(fail)?;
         let mut overrides = Vec::new();
@@ -352,6 +361,7 @@ impl Config {
                 ("select", o.select),
                 ("compress", o.compress),
                 ("plt", o.plt),
+                ("hierarchy", o.hierarchy),
             ]);
             let mut merged = stages.clone();
             merge(&mut merged, &over);

@@ -8,6 +8,7 @@
 pub mod config;
 pub mod discover;
 pub mod gpu_select;
+pub mod hierarchy;
 pub mod ingest;
 pub mod package;
 pub mod release;
@@ -75,7 +76,8 @@ pub struct BuildOptions {
     pub gpu_select: Option<String>,
 }
 
-/// The jobs of one asset.
+/// The jobs of one asset. For a hierarchy, the chain fields are the root node's and
+/// `package` is the hierarchy job.
 #[derive(Clone, Debug)]
 pub struct AssetJobs {
     pub asset: Asset,
@@ -86,139 +88,275 @@ pub struct AssetJobs {
     pub plt: JobId,
     pub compress: JobId,
     pub package: JobId,
+    /// The other nodes' jobs of a hierarchy (clip and chain), upstream first.
+    pub nodes: Vec<JobId>,
 }
 
 impl AssetJobs {
     /// Every job of the asset, upstream first.
-    pub fn all(&self) -> [JobId; 7] {
-        [
+    pub fn all(&self) -> Vec<JobId> {
+        let mut all = vec![
             self.ingest,
             self.views,
             self.bake,
             self.select,
             self.plt,
             self.compress,
-            self.package,
-        ]
+        ];
+        all.extend(&self.nodes);
+        all.push(self.package);
+        all.dedup();
+        all
     }
 }
 
-/// One asset to plan: its parameters (overrides applied, resolution decided), and whether it
-/// gets the whole chain or, while `auto` resolution measures, only the jobs up to its PLT.
+/// One asset to plan: its parameters (overrides applied, resolution decided), whether it
+/// gets the whole chain or, while `auto` resolution or a hierarchy's shape is measured, only
+/// the jobs up to its PLT, and its hierarchy's shape once decided.
 #[derive(Clone, Debug)]
 pub struct PlannedAsset {
     pub asset: Asset,
     pub params: config::StageParams,
     pub measure_only: bool,
+    pub tree: Option<hierarchy::PlannedTree>,
 }
 
-/// Build the job graph for `assets`.
-pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
-    let ingest_stage: Arc<dyn ori_graph::Stage> = Arc::new(ingest::IngestStage);
-    let views_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::ViewsStage);
-    let bake_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::BakeStage);
-    let select_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::SelectStage);
-    let plt_stage: Arc<dyn ori_graph::Stage> = Arc::new(stages::PltStage);
-    let compress_stage: Arc<dyn ori_graph::Stage> = Arc::new(package::CompressStage);
-    let package_stage: Arc<dyn ori_graph::Stage> = Arc::new(package::PackageStage);
-    let output = |job: JobId, name: &str| Input::Output {
+/// Every stage, shared by the jobs of one plan.
+struct Stages {
+    ingest: Arc<dyn ori_graph::Stage>,
+    views: Arc<dyn ori_graph::Stage>,
+    bake: Arc<dyn ori_graph::Stage>,
+    select: Arc<dyn ori_graph::Stage>,
+    plt: Arc<dyn ori_graph::Stage>,
+    compress: Arc<dyn ori_graph::Stage>,
+    package: Arc<dyn ori_graph::Stage>,
+    clip: Arc<dyn ori_graph::Stage>,
+    hierarchy: Arc<dyn ori_graph::Stage>,
+}
+
+impl Stages {
+    fn new() -> Stages {
+        Stages {
+            ingest: Arc::new(ingest::IngestStage),
+            views: Arc::new(stages::ViewsStage),
+            bake: Arc::new(stages::BakeStage),
+            select: Arc::new(stages::SelectStage),
+            plt: Arc::new(stages::PltStage),
+            compress: Arc::new(package::CompressStage),
+            package: Arc::new(package::PackageStage),
+            clip: Arc::new(hierarchy::ClipStage),
+            hierarchy: Arc::new(hierarchy::HierarchyStage),
+        }
+    }
+}
+
+fn output(job: JobId, name: &str) -> Input {
+    Input::Output {
         job,
         name: name.to_string(),
+    }
+}
+
+/// The jobs from a mesh to a package (`compress` and `package` are `None` when measuring).
+struct Chain {
+    views: JobId,
+    bake: JobId,
+    select: JobId,
+    plt: JobId,
+    compress: Option<JobId>,
+    package: Option<JobId>,
+}
+
+impl Chain {
+    fn jobs(&self) -> Vec<JobId> {
+        let mut jobs = vec![self.views, self.bake, self.select, self.plt];
+        jobs.extend(self.compress);
+        jobs.extend(self.package);
+        jobs
+    }
+}
+
+/// Add the chain of one ORI of `asset` (labelled `label` in progress and messages) over the
+/// mesh output `mesh` = (job, output name).
+fn plan_chain(
+    graph: &mut Graph,
+    stages: &Stages,
+    label: &str,
+    planned: &PlannedAsset,
+    mesh: (JobId, &str),
+) -> Chain {
+    let (asset, params) = (&planned.asset, &planned.params);
+    let job = |stage: &Arc<dyn ori_graph::Stage>, params, inputs| JobSpec {
+        asset: label.to_string(),
+        stage: stage.clone(),
+        params,
+        inputs,
     };
-    let mut graph = Graph::new();
-    let mut jobs = Vec::new();
-    for planned in assets {
-        let (asset, params) = (&planned.asset, &planned.params);
-        let format = ori_mesh::Format::from_path(&asset.path);
-        let ingest = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: ingest_stage.clone(),
-            params: match format {
-                Some(f) => ingest::params(f, &params.ingest),
-                None => serde_json::json!({ "format": null }),
-            },
-            inputs: vec![("source".into(), Input::Source(asset.path.clone()))],
-        });
-        let views = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: views_stage.clone(),
-            params: to_json(&params.views),
-            inputs: vec![(ingest::MESH.into(), output(ingest, ingest::MESH))],
-        });
-        let bake = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: bake_stage.clone(),
-            params: to_json(&params.bake),
-            inputs: vec![
-                (ingest::MESH.into(), output(ingest, ingest::MESH)),
-                (stages::VIEWS.into(), output(views, stages::VIEWS)),
-            ],
-        });
-        let select = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: select_stage.clone(),
-            params: select_params(params),
-            inputs: vec![
-                (ingest::MESH.into(), output(ingest, ingest::MESH)),
-                (stages::MAPS.into(), output(bake, stages::MAPS)),
-            ],
-        });
-        let plt = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: plt_stage.clone(),
-            params: serde_json::json!({}),
-            inputs: vec![(stages::SELECTION.into(), output(select, stages::SELECTION))],
-        });
-        if planned.measure_only {
-            jobs.push(AssetJobs {
-                asset: asset.clone(),
-                ingest,
-                views,
-                bake,
-                select,
-                plt,
-                compress: plt,
-                package: plt,
-            });
-            continue;
-        }
-        let compress = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: compress_stage.clone(),
-            params: to_json(&params.compress),
-            inputs: vec![(stages::MAPS.into(), output(bake, stages::MAPS))],
-        });
-        let package_params = package::PackageParams {
-            name: asset.name.clone(),
-            tool: package::tool(),
-            depth: params.compress.depth,
-            pipeline: recorded_params(params),
-        };
-        let package = graph.add(JobSpec {
-            asset: asset.name.clone(),
-            stage: package_stage.clone(),
-            params: to_json(&package_params),
-            inputs: vec![
-                // Hashed, never read: the manifest records the source's content hash.
-                ("source".into(), Input::Source(asset.path.clone())),
-                (stages::MAPS.into(), output(bake, stages::MAPS)),
-                (stages::SELECTION.into(), output(select, stages::SELECTION)),
-                (stages::PLT.into(), output(plt, stages::PLT)),
-                (
-                    package::TEXTURES.into(),
-                    output(compress, package::TEXTURES),
-                ),
-            ],
-        });
-        jobs.push(AssetJobs {
-            asset: asset.clone(),
-            ingest,
+    let mesh_input = || (ingest::MESH.to_string(), output(mesh.0, mesh.1));
+    let views = graph.add(job(
+        &stages.views,
+        to_json(&params.views),
+        vec![mesh_input()],
+    ));
+    let bake = graph.add(job(
+        &stages.bake,
+        to_json(&params.bake),
+        vec![
+            mesh_input(),
+            (stages::VIEWS.into(), output(views, stages::VIEWS)),
+        ],
+    ));
+    let select = graph.add(job(
+        &stages.select,
+        select_params(params),
+        vec![
+            mesh_input(),
+            (stages::MAPS.into(), output(bake, stages::MAPS)),
+        ],
+    ));
+    let plt = graph.add(job(
+        &stages.plt,
+        serde_json::json!({}),
+        vec![(stages::SELECTION.into(), output(select, stages::SELECTION))],
+    ));
+    if planned.measure_only {
+        return Chain {
             views,
             bake,
             select,
             plt,
-            compress,
-            package,
+            compress: None,
+            package: None,
+        };
+    }
+    let compress = graph.add(job(
+        &stages.compress,
+        to_json(&params.compress),
+        vec![(stages::MAPS.into(), output(bake, stages::MAPS))],
+    ));
+    let package_params = package::PackageParams {
+        name: asset.name.clone(),
+        tool: package::tool(),
+        depth: params.compress.depth,
+        pipeline: recorded_params(params),
+    };
+    let package = graph.add(job(
+        &stages.package,
+        to_json(&package_params),
+        vec![
+            // Hashed, never read: the manifest records the source's content hash.
+            ("source".into(), Input::Source(asset.path.clone())),
+            (stages::MAPS.into(), output(bake, stages::MAPS)),
+            (stages::SELECTION.into(), output(select, stages::SELECTION)),
+            (stages::PLT.into(), output(plt, stages::PLT)),
+            (
+                package::TEXTURES.into(),
+                output(compress, package::TEXTURES),
+            ),
+        ],
+    ));
+    Chain {
+        views,
+        bake,
+        select,
+        plt,
+        compress: Some(compress),
+        package: Some(package),
+    }
+}
+
+/// The ingest job of an asset.
+fn plan_ingest(graph: &mut Graph, stages: &Stages, planned: &PlannedAsset) -> JobId {
+    let (asset, params) = (&planned.asset, &planned.params);
+    graph.add(JobSpec {
+        asset: asset.name.clone(),
+        stage: stages.ingest.clone(),
+        params: match ori_mesh::Format::from_path(&asset.path) {
+            Some(f) => ingest::params(f, &params.ingest),
+            None => serde_json::json!({ "format": null }),
+        },
+        inputs: vec![("source".into(), Input::Source(asset.path.clone()))],
+    })
+}
+
+/// The clip job of a hierarchy node: the asset's mesh clipped to `clip`.
+fn plan_clip(
+    graph: &mut Graph,
+    stages: &Stages,
+    label: String,
+    ingest: JobId,
+    clip: &ori_hierarchy::Cell,
+) -> JobId {
+    graph.add(JobSpec {
+        asset: label,
+        stage: stages.clip.clone(),
+        params: to_json(&hierarchy::ClipParams {
+            min: clip.min,
+            max: clip.max,
+        }),
+        inputs: vec![(ingest::MESH.into(), output(ingest, ingest::MESH))],
+    })
+}
+
+/// How a hierarchy node's jobs are labelled in progress lines and messages.
+fn node_label(asset: &str, node: usize) -> String {
+    format!("{asset} [node {node}]")
+}
+
+/// Build the job graph for `assets`.
+pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
+    let stages = Stages::new();
+    let mut graph = Graph::new();
+    let mut jobs = Vec::new();
+    for planned in assets {
+        let asset = &planned.asset;
+        let ingest = plan_ingest(&mut graph, &stages, planned);
+        let root = plan_chain(
+            &mut graph,
+            &stages,
+            &asset.name,
+            planned,
+            (ingest, ingest::MESH),
+        );
+        let mut nodes = Vec::new();
+        let mut package = root.package;
+        if let Some(tree) = &planned.tree {
+            let mut node_packages = vec![root.package];
+            for (i, node) in tree.nodes.iter().enumerate().skip(1) {
+                let label = node_label(&asset.name, i);
+                let cell = node.clip.as_ref().unwrap_or(&node.cell);
+                let clip = plan_clip(&mut graph, &stages, label.clone(), ingest, cell);
+                let chain = plan_chain(&mut graph, &stages, &label, planned, (clip, ingest::MESH));
+                nodes.push(clip);
+                nodes.extend(chain.jobs());
+                node_packages.push(chain.package);
+            }
+            if !planned.measure_only {
+                let params =
+                    hierarchy::TreeParams::new(&asset.name, &planned.params.hierarchy, tree);
+                let mut inputs = vec![("source".into(), Input::Source(asset.path.clone()))];
+                for (i, p) in node_packages.iter().enumerate() {
+                    let p = p.expect("a full chain has a package job");
+                    inputs.push((hierarchy::node_input(i), output(p, package::PACKAGE)));
+                }
+                package = Some(graph.add(JobSpec {
+                    asset: asset.name.clone(),
+                    stage: stages.hierarchy.clone(),
+                    params: to_json(&params),
+                    inputs,
+                }));
+            }
+        }
+        jobs.push(AssetJobs {
+            asset: asset.clone(),
+            ingest,
+            views: root.views,
+            bake: root.bake,
+            select: root.select,
+            plt: root.plt,
+            compress: root.compress.unwrap_or(root.plt),
+            package: package.unwrap_or(root.plt),
+            nodes,
         });
     }
     (graph, jobs)
@@ -239,8 +377,12 @@ fn select_params(params: &config::StageParams) -> serde_json::Value {
 fn recorded_params(params: &config::StageParams) -> serde_json::Value {
     let mut json = to_json(params);
     json["bake"]["resolution_auto"] = serde_json::Value::Bool(params.auto_resolution);
+    let object = json.as_object_mut().expect("an object");
     if !params.auto_resolution {
-        json.as_object_mut().expect("an object").remove("plt");
+        object.remove("plt");
+    }
+    if !params.hierarchy.enabled {
+        object.remove("hierarchy");
     }
     json
 }
@@ -454,7 +596,9 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         .collect();
     let mut stages = Vec::new();
     let mut sources_hashed = 0;
-    // `auto` resolutions are measured first (a dry run plans the first guess only).
+    // `auto` resolutions are measured first, then hierarchies' shapes (a dry run plans the
+    // first guess and single ORIs only).
+    let mut trees = vec![None; assets.len()];
     let auto = if options.dry_run {
         vec![None; assets.len()]
     } else {
@@ -467,15 +611,19 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
             sources_hashed += build.sources_rehashed();
             read(&build);
         };
-        choose_resolutions(&assets, &mut params, &mut trial_run)
+        let auto = choose_resolutions(&assets, &mut params, &mut trial_run);
+        trees = choose_trees(&assets, &params, &mut trial_run);
+        auto
     };
     let planned: Vec<PlannedAsset> = assets
         .iter()
         .zip(&params)
-        .map(|(asset, params)| PlannedAsset {
+        .zip(trees)
+        .map(|((asset, params), tree)| PlannedAsset {
             asset: asset.clone(),
             params: params.clone(),
             measure_only: false,
+            tree,
         })
         .collect();
     let (graph, jobs) = plan(&planned);
@@ -726,6 +874,7 @@ fn choose_resolutions(
                     asset: assets[i].clone(),
                     params: p,
                     measure_only: true,
+                    tree: None,
                 }
             })
             .collect();
@@ -745,6 +894,161 @@ fn choose_resolutions(
     }
 }
 
+/// Decide the shape of every hierarchy (`[hierarchy] enabled`): measure the root's PLT,
+/// clip the children of every node below `target_px` (and above `max_depth`), measure the
+/// non-empty ones, and so on, a level per round of trial runs (every job through the cache).
+/// `None` for assets without a hierarchy. A node whose measurement fails is kept unsplit:
+/// the final run reports its failure.
+fn choose_trees(
+    assets: &[Asset],
+    params: &[config::StageParams],
+    run: &mut dyn FnMut(&Graph, &mut ReadBuild<'_>),
+) -> Vec<Option<hierarchy::PlannedTree>> {
+    use hierarchy::{Measured, PlannedNode, PlannedTree};
+    let mut trees: Vec<Option<PlannedTree>> = params
+        .iter()
+        .map(|p| {
+            p.hierarchy.enabled.then(|| PlannedTree {
+                nodes: vec![PlannedNode {
+                    cell: ori_hierarchy::Cell {
+                        min: [0.0; 3],
+                        max: [0.0; 3],
+                    },
+                    clip: None,
+                    depth: 0,
+                    children: Vec::new(),
+                }],
+            })
+        })
+        .collect();
+    let mut measured: Vec<Vec<Option<Measured>>> = Vec::new();
+    let mut split_done: Vec<Vec<bool>> = Vec::new();
+    for _ in assets {
+        measured.push(Vec::new());
+        split_done.push(Vec::new());
+    }
+    loop {
+        // Measure the nodes added last round (the whole tree is planned; the rest is cached).
+        let batch: Vec<usize> = (0..assets.len())
+            .filter(|&i| {
+                trees[i]
+                    .as_ref()
+                    .is_some_and(|t| t.nodes.len() > measured[i].len())
+            })
+            .collect();
+        if batch.is_empty() {
+            return trees;
+        }
+        let planned: Vec<PlannedAsset> = batch
+            .iter()
+            .map(|&i| PlannedAsset {
+                asset: assets[i].clone(),
+                params: params[i].clone(),
+                measure_only: true,
+                tree: trees[i].clone(),
+            })
+            .collect();
+        let (graph, jobs) = plan(&planned);
+        run(&graph, &mut |build| {
+            for (&i, j) in batch.iter().zip(&jobs) {
+                let tree = trees[i].as_mut().expect("a hierarchy");
+                // Per node: (mesh job, plt job), in `plan`'s order.
+                let mut node_jobs = vec![(j.ingest, j.plt)];
+                node_jobs.extend(j.nodes.chunks(5).map(|c| (c[0], c[4])));
+                for (k, &(mesh_job, plt_job)) in node_jobs.iter().enumerate() {
+                    if k < measured[i].len() {
+                        continue;
+                    }
+                    let mesh = build
+                        .read_output(mesh_job, ingest::MESH)
+                        .ok()
+                        .and_then(|b| ori_mesh::Mesh::decode(&b).ok());
+                    let plt = build
+                        .read_output(plt_job, stages::PLT)
+                        .ok()
+                        .and_then(|b| ori_plt::Plt::decode(&b).ok());
+                    if k == 0
+                        && let Some(cube) = mesh
+                            .as_ref()
+                            .and_then(|m| ori_hierarchy::Cell::bounding_cube(&m.positions))
+                    {
+                        tree.nodes[0].cell = cube;
+                    }
+                    measured[i].push(match (mesh, plt) {
+                        (Some(m), Some(p)) => Some(Measured {
+                            vertices: m.positions,
+                            plt_px: p.pixels(),
+                        }),
+                        _ => None,
+                    });
+                    split_done[i].push(false);
+                }
+            }
+        });
+        // Clip the children of the nodes to split; keep the non-empty ones.
+        let mut tries = Vec::new();
+        for &i in &batch {
+            let tree = trees[i].as_ref().expect("a hierarchy");
+            let children = hierarchy::children_to_try(
+                &params[i].hierarchy,
+                tree,
+                &measured[i],
+                &mut split_done[i],
+            );
+            if !children.is_empty() {
+                tries.push((i, children));
+            }
+        }
+        if tries.is_empty() {
+            return trees;
+        }
+        let stages = Stages::new();
+        let mut graph = Graph::new();
+        let mut clip_jobs = Vec::new();
+        for (i, children) in &tries {
+            let planned = PlannedAsset {
+                asset: assets[*i].clone(),
+                params: params[*i].clone(),
+                measure_only: true,
+                tree: None,
+            };
+            let ingest = plan_ingest(&mut graph, &stages, &planned);
+            let first = trees[*i].as_ref().expect("a hierarchy").nodes.len();
+            clip_jobs.push(
+                children
+                    .iter()
+                    .enumerate()
+                    .map(|(k, (_, _, clip))| {
+                        let label = node_label(&assets[*i].name, first + k);
+                        plan_clip(&mut graph, &stages, label, ingest, clip)
+                    })
+                    .collect::<Vec<_>>(),
+            );
+        }
+        run(&graph, &mut |build| {
+            for ((i, children), jobs) in tries.iter().zip(&clip_jobs) {
+                let tree = trees[*i].as_mut().expect("a hierarchy");
+                for (&(parent, cell, clip), &job) in children.iter().zip(jobs) {
+                    // Empty (or unreadable: the final run would fail it the same way) is dropped.
+                    if build
+                        .read_output(job, ingest::MESH)
+                        .is_ok_and(|b| !b.is_empty())
+                    {
+                        let index = tree.nodes.len();
+                        tree.nodes[parent].children.push(index);
+                        tree.nodes.push(PlannedNode {
+                            cell,
+                            clip: Some(clip),
+                            depth: tree.nodes[parent].depth + 1,
+                            children: Vec::new(),
+                        });
+                    }
+                }
+            }
+        });
+    }
+}
+
 /// Write every package as a folder `<dir>/<package path without .ori>/`.
 fn explode(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<(), PipelineError> {
     for (name, bytes) in packages {
@@ -754,8 +1058,21 @@ fn explode(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<(), PipelineErr
             path: folder.clone(),
             message,
         };
-        let package = ori_package::read(bytes).map_err(|e| fail(e.to_string()))?;
-        ori_package::explode(&package, &folder).map_err(|e| fail(e.to_string()))?;
+        match ori_package::read_any(bytes).map_err(|e| fail(e.to_string()))? {
+            ori_package::AnyPackage::Single(package) => {
+                ori_package::explode(&package, &folder).map_err(|e| fail(e.to_string()))?;
+            }
+            // A hierarchy: its tree as `hierarchy.json`, each node as `node-N/`.
+            ori_package::AnyPackage::Hierarchy(h) => {
+                for (i, package) in h.nodes.iter().enumerate() {
+                    ori_package::explode(package, &folder.join(format!("node-{i}")))
+                        .map_err(|e| fail(e.to_string()))?;
+                }
+                let json = serde_json::to_vec_pretty(&h.manifest).expect("manifest serialises");
+                ori_graph::write_atomic(&folder.join("hierarchy.json"), &json)
+                    .map_err(|e| fail(format!("cannot write hierarchy.json: {e}")))?;
+            }
+        }
     }
     Ok(())
 }

@@ -40,8 +40,11 @@ pub struct ReleaseEntry {
     /// Projected length threshold in pixels (a lower bound when `plt_at_least`).
     pub plt: f64,
     pub plt_at_least: bool,
-    /// Bytes of texture data in the package.
+    /// Bytes of texture data in the package (every node's, for a hierarchy).
     pub texture_bytes: u64,
+    /// A hierarchy's node count (absent for a single ORI).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<usize>,
 }
 
 /// The package file of an asset: its name with the extension replaced by `.ori`.
@@ -57,8 +60,9 @@ pub fn package_path(asset: &str) -> String {
 
 /// The release entry of a package, checking the package as a reader would.
 pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
-    let package = ori_package::read(bytes).map_err(|e| format!("invalid package: {e}"))?;
-    let plt = &package.manifest.plt;
+    let package = ori_package::read_any(bytes).map_err(|e| format!("invalid package: {e}"))?;
+    // A hierarchy's PLT is its root's: the whole object drawn as one ORI.
+    let plt = &package.root().manifest.plt;
     Ok(ReleaseEntry {
         name: name.to_string(),
         package: package_path(name),
@@ -67,6 +71,10 @@ pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
         plt: plt.pixels,
         plt_at_least: plt.at_least,
         texture_bytes: package.texture_bytes(),
+        nodes: match &package {
+            ori_package::AnyPackage::Single(_) => None,
+            ori_package::AnyPackage::Hierarchy(h) => Some(h.nodes.len()),
+        },
     })
 }
 

@@ -170,8 +170,13 @@ fn pictures_of(
     let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
     let bytes = std::fs::read(&package_path)
         .map_err(|e| format!("{}: cannot read: {e}", package_path.display()))?;
-    let package =
-        ori_package::read(&bytes).map_err(|e| format!("{}: {e}", package_path.display()))?;
+    // A hierarchy is pictured by its root: the whole object as one ORI.
+    let package = match ori_package::read_any(&bytes)
+        .map_err(|e| format!("{}: {e}", package_path.display()))?
+    {
+        ori_package::AnyPackage::Single(p) => p,
+        ori_package::AnyPackage::Hierarchy(h) => h.nodes.into_iter().next().expect("a root"),
+    };
     let m = &package.manifest;
     s.impostors = Some(m.impostors.len());
     let set = relief_set(&package)?;

@@ -1,0 +1,240 @@
+//! Hierarchical ORIs (`[hierarchy]`, ORI paper section 5): the clip and hierarchy stages, and
+//! the search that decides each tree's shape by measuring node PLTs through the graph.
+//!
+//! A tree starts as its root: the asset's ordinary chain (so a hierarchy whose root already
+//! reaches the target costs nothing more than a single ORI). A node whose PLT is below
+//! `target_px` and above `max_depth` is split (`ori_hierarchy::split`); each child's mesh is
+//! the model clipped (`ori_mesh::clip_to_box`) to the child's cell grown by `inflate` of the
+//! parent's edge; empty children are dropped; every other child gets its own chain (views,
+//! bake, select, plt, compress, package), each job cached under its own key, so an edit that
+//! changes only some cells' meshes rebuilds only those nodes' chains and the hierarchy job.
+
+use ori_graph::{JobContext, Stage, StageError};
+use ori_hierarchy::Cell;
+use ori_mesh::Mesh;
+use ori_package::{HierarchyManifest, HierarchyNode, Source, SplitKind};
+use serde::{Deserialize, Serialize};
+
+use crate::ingest::MESH;
+use crate::package::PACKAGE;
+use crate::stages::params;
+
+/// `[hierarchy]`: build a tree of ORIs instead of one.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HierarchyParams {
+    /// Build a hierarchy (off by default: one ORI per asset).
+    pub enabled: bool,
+    /// "octree" (eight octants) or "kd" (two halves at the median vertex).
+    pub split: SplitKind,
+    /// Deepest level; the root is level 0 (0 to 4).
+    pub max_depth: u32,
+    /// A node whose PLT reaches this many pixels is not split.
+    pub target_px: f64,
+    /// A child's mesh is clipped to its cell grown by this fraction of the parent's edge.
+    pub inflate: f64,
+}
+
+impl Default for HierarchyParams {
+    fn default() -> Self {
+        HierarchyParams {
+            enabled: false,
+            split: SplitKind::Octree,
+            max_depth: 2,
+            target_px: 512.0,
+            inflate: 0.01,
+        }
+    }
+}
+
+impl HierarchyParams {
+    /// Check the values; the message names the key at fault.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.max_depth > 4 {
+            return Err(format!(
+                "hierarchy.max_depth = {}: expected 0 to 4 (a depth-4 octree has up to 4,681 nodes)",
+                self.max_depth
+            ));
+        }
+        if !(self.target_px.is_finite() && self.target_px >= 1.0 && self.target_px <= 1e6) {
+            return Err(format!(
+                "hierarchy.target_px = {}: expected 1 to 1000000 pixels",
+                self.target_px
+            ));
+        }
+        if !(self.inflate.is_finite() && (0.0..=0.25).contains(&self.inflate)) {
+            return Err(format!(
+                "hierarchy.inflate = {}: expected 0 to 0.25 (a fraction of the parent's edge)",
+                self.inflate
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The parameters of a clip job: the box the mesh is clipped to (the cell, inflated).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClipParams {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+}
+
+/// Clips the asset's mesh to a box: the mesh of one hierarchy node. Its output is empty
+/// when nothing of the mesh is inside (the node is then dropped).
+pub struct ClipStage;
+
+impl Stage for ClipStage {
+    fn name(&self) -> &'static str {
+        "clip"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let p: ClipParams = params(ctx)?;
+        let mesh = Mesh::decode(&ctx.input(MESH)?)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let bytes =
+            ori_mesh::clip_to_box(&mesh, p.min, p.max).map_or_else(Vec::new, |m| m.encode());
+        ctx.output(MESH, bytes);
+        Ok(())
+    }
+}
+
+/// One node of a decided tree.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedNode {
+    /// The node's cell.
+    pub cell: Cell,
+    /// The box its mesh is clipped to (the cell, inflated); `None` for the root, whose mesh is
+    /// the whole model.
+    pub clip: Option<Cell>,
+    /// Level: 0 for the root.
+    pub depth: u32,
+    /// Child node indices (greater than this node's).
+    pub children: Vec<usize>,
+}
+
+/// A decided tree: node 0 is the root; children come after their parent (breadth first).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlannedTree {
+    pub nodes: Vec<PlannedNode>,
+}
+
+/// Parameters of the hierarchy job: the tree, and what its manifest records.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TreeParams {
+    pub name: String,
+    pub tool: String,
+    pub split: SplitKind,
+    pub target_px: f64,
+    /// Per node: `[min, max]` and its children.
+    pub nodes: Vec<([[f64; 3]; 2], Vec<u32>)>,
+}
+
+impl TreeParams {
+    pub fn new(name: &str, params: &HierarchyParams, tree: &PlannedTree) -> TreeParams {
+        TreeParams {
+            name: name.to_string(),
+            tool: crate::package::tool(),
+            split: params.split,
+            target_px: params.target_px,
+            nodes: tree
+                .nodes
+                .iter()
+                .map(|n| {
+                    (
+                        n.cell.bounds(),
+                        n.children.iter().map(|&c| c as u32).collect(),
+                    )
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The input name of node `i`'s package in the hierarchy job.
+pub fn node_input(i: usize) -> String {
+    format!("node{i}")
+}
+
+/// Gathers the node packages into one hierarchy package (format version 2).
+pub struct HierarchyStage;
+
+impl Stage for HierarchyStage {
+    fn name(&self) -> &'static str {
+        "hierarchy"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let p: TreeParams = params(ctx)?;
+        let source = ctx
+            .input_hash("source")
+            .ok_or_else(|| StageError::new("the hierarchy job has no source input"))?;
+        let mut packages = Vec::with_capacity(p.nodes.len());
+        for i in 0..p.nodes.len() {
+            packages.push(ctx.input(&node_input(i))?.to_vec());
+        }
+        let manifest = HierarchyManifest {
+            format_version: ori_package::HIERARCHY_FORMAT_VERSION,
+            tool: p.tool,
+            source: Source {
+                name: p.name,
+                blake3: source.to_hex().to_string(),
+            },
+            split: p.split,
+            target_px: p.target_px,
+            nodes: p
+                .nodes
+                .into_iter()
+                .map(|(bounds, children)| HierarchyNode::new(bounds, children))
+                .collect(),
+        };
+        let bytes = ori_package::write_hierarchy(&manifest, &packages)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        ctx.output(PACKAGE, bytes);
+        Ok(())
+    }
+}
+
+/// What the tree search needs measured for one node: its mesh's vertices and its PLT.
+pub struct Measured {
+    pub vertices: Vec<[f32; 3]>,
+    pub plt_px: f64,
+}
+
+/// The next step of one tree's search, given what is known of its nodes (`measured[i]` for
+/// every node, `None` when its chain failed): the cells to clip for the children of every
+/// node that needs splitting and has not been split yet, as (parent, child cell, clip box).
+/// `split_done[i]` marks nodes already decided.
+pub fn children_to_try(
+    params: &HierarchyParams,
+    tree: &PlannedTree,
+    measured: &[Option<Measured>],
+    split_done: &mut [bool],
+) -> Vec<(usize, Cell, Cell)> {
+    let mut out = Vec::new();
+    for (i, node) in tree.nodes.iter().enumerate() {
+        if split_done[i] {
+            continue;
+        }
+        split_done[i] = true;
+        let Some(m) = &measured[i] else { continue };
+        if m.plt_px >= params.target_px || node.depth >= params.max_depth {
+            continue;
+        }
+        let grow = params.inflate * node.cell.edge();
+        for child in ori_hierarchy::split(&node.cell, params.split, &m.vertices) {
+            out.push((i, child, child.inflated(grow)));
+        }
+    }
+    out
+}
