@@ -1,10 +1,12 @@
 //! `cargo xtask preview PACKAGE`: the ORI drawn by the wgpu runtime renderer, the reference
-//! mesh with the same camera, and their difference, side by side (one row per direction).
+//! mesh with the same camera, and their difference, side by side (one row per direction, or
+//! per step of a camera path). A hierarchy package is drawn by the runtime traversal.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use ori_render::{Camera, GpuMesh, GpuOri, Image, Renderer};
+use ori_package::AnyPackage;
+use ori_render::{Camera, Draw, GpuHierarchy, GpuMesh, GpuOri, Image, Renderer, Visit};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -14,8 +16,13 @@ pub struct Args {
     #[arg(long, value_name = "X,Y,Z", conflicts_with = "turntable")]
     dir: Option<String>,
     /// N views around the vertical axis, 20 degrees above the horizon.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", conflicts_with = "path")]
     turntable: Option<u32>,
+    /// A camera path of N perspective views along `--dir`, from far (the object at a
+    /// quarter of its PLT) to near (four times the largest PLT of any node); a hierarchy
+    /// draws each node as its ORI, its children or (a leaf past its PLT) its mesh.
+    #[arg(long, value_name = "N")]
+    path: Option<u32>,
     /// Edge of each picture in pixels.
     #[arg(long, default_value_t = 512)]
     size: u32,
@@ -51,6 +58,11 @@ pub fn run(args: Args) -> ExitCode {
 fn directions(args: &Args) -> Result<Vec<[f64; 3]>, String> {
     if args.size == 0 || args.size > 4096 {
         return Err(format!("--size {} must be 1 to 4096", args.size));
+    }
+    if let Some(n) = args.path
+        && !(2..=64).contains(&n)
+    {
+        return Err(format!("--path {n} must be 2 to 64"));
     }
     if let Some(n) = args.turntable {
         if n == 0 || n > 64 {
@@ -112,31 +124,108 @@ pub fn source_mesh(
         .mesh)
 }
 
+/// What is drawn: one ORI, or a hierarchy with its leaves' meshes.
+enum Scene {
+    Single(Box<GpuOri>),
+    Tree {
+        hierarchy: GpuHierarchy,
+        leaves: Vec<Option<GpuMesh>>,
+    },
+}
+
+impl Scene {
+    /// The draws for `camera`, and a description of them.
+    fn draws(&self, camera: &Camera, size: u32) -> Result<(Vec<Draw<'_>>, String), String> {
+        match self {
+            Scene::Single(ori) => {
+                let (center, _) = ori.bounding_sphere();
+                let n = ori.selection(camera.view_direction(center)).len();
+                Ok((vec![Draw::Ori(ori)], format!("{n} impostor(s)")))
+            }
+            Scene::Tree { hierarchy, leaves } => {
+                let visits = hierarchy.traverse(camera, size);
+                let describe: Vec<String> = visits
+                    .iter()
+                    .map(|&v| {
+                        let m = hierarchy.node(v.node()).manifest();
+                        let s = &m.bounding_sphere;
+                        let px = camera
+                            .projected_sphere_edge(s.center, s.radius, size)
+                            .map_or("unbounded".to_string(), |p| format!("{p:.0}"));
+                        match v {
+                            Visit::Ori(i) => {
+                                format!("ori {i} ({px} px <= PLT {:.0})", m.plt.pixels)
+                            }
+                            Visit::Mesh(i) => {
+                                format!("mesh {i} ({px} px > PLT {:.0})", m.plt.pixels)
+                            }
+                        }
+                    })
+                    .collect();
+                let draws = hierarchy
+                    .draws(&visits, leaves)
+                    .map_err(|e| e.to_string())?;
+                Ok((draws, format!("nodes: {}", describe.join(", "))))
+            }
+        }
+    }
+}
+
 fn preview(args: &Args, directions: &[[f64; 3]]) -> Result<(), String> {
     let bytes = std::fs::read(&args.package)
         .map_err(|e| format!("{}: cannot read: {e}", args.package.display()))?;
     let package =
-        ori_package::read(&bytes).map_err(|e| format!("{}: {e}", args.package.display()))?;
+        ori_package::read_any(&bytes).map_err(|e| format!("{}: {e}", args.package.display()))?;
     let renderer = Renderer::new().map_err(|e| e.to_string())?;
     println!("adapter: {}", renderer.adapter_summary());
     if !renderer.compressed_textures() {
         println!("notice: the adapter cannot sample BC textures; they are decoded on the CPU");
     }
-    let ori = renderer.load_package(&package).map_err(|e| e.to_string())?;
-    let mesh = match source_mesh(&package.manifest, &args.config, args.assets.clone()) {
-        Ok(mesh) => Some(renderer.load_mesh(&mesh).map_err(|e| e.to_string())?),
+    let root = package.root().manifest.clone();
+    let source = source_mesh(&root, &args.config, args.assets.clone());
+    let mesh = match &source {
+        Ok(mesh) => Some(renderer.load_mesh(mesh).map_err(|e| e.to_string())?),
         Err(e) => {
             println!("no reference mesh ({e}): the ORI alone");
             None
         }
     };
+    let scene = match &package {
+        AnyPackage::Single(p) => Scene::Single(Box::new(
+            renderer.load_package(p).map_err(|e| e.to_string())?,
+        )),
+        AnyPackage::Hierarchy(h) => {
+            println!("hierarchy: {} nodes", h.nodes.len());
+            // The runtime supplies leaf meshes: the source clipped to each leaf's cell.
+            let leaves = h
+                .manifest
+                .nodes
+                .iter()
+                .map(|n| match &source {
+                    Ok(m) if n.children.is_empty() => {
+                        ori_mesh::clip_to_box(m, n.bounds[0], n.bounds[1])
+                            .map(|c| renderer.load_mesh(&c))
+                            .transpose()
+                    }
+                    _ => Ok(None),
+                })
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| e.to_string())?;
+            Scene::Tree {
+                hierarchy: renderer.load_hierarchy(h).map_err(|e| e.to_string())?,
+                leaves,
+            }
+        }
+    };
     let size = args.size;
+    let cameras = cameras(args, &package, directions, size);
     let columns = if mesh.is_some() { 3 } else { 1 };
-    let mut sheet = vec![255u8; (3 * size * columns * size * directions.len() as u32) as usize];
+    let mut sheet = vec![255u8; (3 * size * columns * size * cameras.len() as u32) as usize];
     let stride = (3 * size * columns) as usize;
-    for (row, &dir) in directions.iter().enumerate() {
-        let (images, line) = row_images(&renderer, &ori, mesh.as_ref(), dir, size)?;
-        println!("{line}");
+    for (row, (camera, label)) in cameras.iter().enumerate() {
+        let (draws, what) = scene.draws(camera, size)?;
+        let (images, line) = row_images(&renderer, &draws, mesh.as_ref(), camera, size)?;
+        println!("{label}: {what}; {line}");
         for (col, rgb) in images.iter().enumerate() {
             for y in 0..size as usize {
                 let dst = (row * size as usize + y) * stride + col * 3 * size as usize;
@@ -150,7 +239,7 @@ fn preview(args: &Args, directions: &[[f64; 3]]) -> Result<(), String> {
         &args.out,
         &sheet,
         size * columns,
-        size * directions.len() as u32,
+        size * cameras.len() as u32,
         image::ExtendedColorType::Rgb8,
         image::ImageFormat::Png,
     )
@@ -159,35 +248,76 @@ fn preview(args: &Args, directions: &[[f64; 3]]) -> Result<(), String> {
     Ok(())
 }
 
-/// One row: the ORI, and with a mesh the mesh and the difference (red: the mesh covers, the
-/// ORI misses; blue: the ORI covers, the mesh does not; both: the colour difference x 4).
+/// The cameras of the rows, with their labels: orthographic framings of the bounding sphere
+/// per direction, or (`--path N`) perspective views approaching along the first direction.
+fn cameras(
+    args: &Args,
+    package: &AnyPackage,
+    directions: &[[f64; 3]],
+    size: u32,
+) -> Vec<(Camera, String)> {
+    let root = &package.root().manifest;
+    let (center, radius) = (root.bounding_sphere.center, root.bounding_sphere.radius);
+    let Some(steps) = args.path else {
+        return directions
+            .iter()
+            .map(|&dir| {
+                (
+                    Camera::ortho_framing(center, radius, dir),
+                    format!("dir {dir:.3?}"),
+                )
+            })
+            .collect();
+    };
+    let largest = match package {
+        AnyPackage::Single(p) => p.manifest.plt.pixels,
+        AnyPackage::Hierarchy(h) => h
+            .nodes
+            .iter()
+            .map(|n| n.manifest.plt.pixels)
+            .fold(0.0, f64::max),
+    };
+    let (far, near) = (0.25 * root.plt.pixels, 4.0 * largest);
+    let fov = 0.8f64;
+    let focal = f64::from(size) / 2.0 / (fov / 2.0).tan();
+    let dir = directions[0];
+    (0..steps)
+        .map(|k| {
+            let edge = far * (near / far).powf(f64::from(k) / f64::from(steps - 1));
+            // The distance at which the sphere's projection has that edge.
+            let t = edge / (2.0 * focal);
+            let distance = radius * (1.0 + t * t).sqrt() / t;
+            let eye = std::array::from_fn(|i| center[i] + dir[i] * distance);
+            let near_plane = (distance - radius).max(1e-3 * distance);
+            let camera = Camera::perspective(eye, center, fov, near_plane, distance + 2.0 * radius);
+            (camera, format!("step {k}: object {edge:.0} px"))
+        })
+        .collect()
+}
+
+/// One row: the draws, and with a mesh the mesh and the difference (red: the mesh covers, the
+/// drawn scene misses; blue: it covers, the mesh does not; both: the colour difference x 4).
 fn row_images(
     renderer: &Renderer,
-    ori: &GpuOri,
+    draws: &[Draw<'_>],
     mesh: Option<&GpuMesh>,
-    dir: [f64; 3],
+    camera: &Camera,
     size: u32,
 ) -> Result<(Vec<Vec<u8>>, String), String> {
-    let (center, radius) = ori.bounding_sphere();
-    let camera = Camera::ortho_framing(center, radius, dir);
     let drawn = renderer
-        .render_ori(ori, &camera, size, size)
+        .render(draws, camera, size, size)
         .map_err(|e| e.to_string())?;
-    let impostors = ori.selection(dir).len();
     let on_white = |img: &Image| -> Vec<u8> {
         (0..img.len())
             .flat_map(|i| if img.covered(i) { img.rgb(i) } else { [255; 3] })
             .collect()
     };
     let Some(mesh) = mesh else {
-        let line = format!(
-            "dir {dir:.3?}: {impostors} impostor(s), {} px drawn",
-            drawn.coverage_count()
-        );
+        let line = format!("{} px drawn", drawn.coverage_count());
         return Ok((vec![on_white(&drawn)], line));
     };
     let reference = renderer
-        .render_mesh(mesh, &camera, size, size)
+        .render_mesh(mesh, camera, size, size)
         .map_err(|e| e.to_string())?;
     let (mut missed, mut extra) = (0, 0);
     let difference: Vec<u8> = (0..drawn.len())
@@ -208,7 +338,7 @@ fn row_images(
         })
         .collect();
     let line = format!(
-        "dir {dir:.3?}: {impostors} impostor(s); mesh {} px, ORI {} px, missed {missed}, added {extra}",
+        "mesh {} px, ORI {} px, missed {missed}, added {extra}",
         reference.coverage_count(),
         drawn.coverage_count()
     );

@@ -184,6 +184,25 @@ impl Camera {
             }
     }
 
+    /// The edge in pixels of the square bounding the projection of the sphere `(center,
+    /// radius)` in an image `height` pixels high: what a PLT is compared with
+    /// (`ori_plt::ortho_sphere_edge`, `ori_plt::sphere_projected_edge`). `None` when the
+    /// sphere reaches the eye's plane (unbounded).
+    pub fn projected_sphere_edge(&self, center: [f64; 3], radius: f64, height: u32) -> Option<f64> {
+        let h = f64::from(height);
+        match self.projection {
+            Projection::Orthographic { half_size, .. } => {
+                Some(ori_plt::ortho_sphere_edge(radius, h / (2.0 * half_size)))
+            }
+            Projection::Perspective { eye, fov_y, .. } => {
+                let rel: [f64; 3] = std::array::from_fn(|k| center[k] - eye[k]);
+                let f = &self.frame;
+                let local = [dot(rel, f.u), dot(rel, f.v), -dot(rel, f.d)];
+                ori_plt::sphere_projected_edge(local, radius, h / 2.0 / (fov_y / 2.0).tan())
+            }
+        }
+    }
+
     /// For an orthographic camera, the height `d . p` of a point at depth `depth` (what
     /// [`crate::Image::depth`] holds); `None` for a perspective camera.
     pub fn ortho_height(&self, depth: f64) -> Option<f64> {

@@ -26,6 +26,9 @@
 //!   perspective.
 //! - [`Renderer::render`] draws any list of [`Draw`]s into one [`Image`]: colour, coverage,
 //!   depth and, per pixel, which impostor (or mesh) drew it.
+//! - [`GpuHierarchy`]: a hierarchy package (format version 2): every node's ORI with option
+//!   5, [`GpuHierarchy::traverse`] (the runtime rule: a node's ORI where its PLT holds, else
+//!   its children, else the leaf's mesh) and [`GpuHierarchy::draws`].
 //!
 //! # Invariants
 //!
@@ -70,6 +73,7 @@
 #![warn(missing_docs)]
 
 mod camera;
+mod hierarchy;
 mod image;
 mod mesh;
 mod ori;
@@ -79,9 +83,11 @@ mod renderer;
 mod targets;
 
 pub use camera::{Camera, Projection};
+pub use hierarchy::GpuHierarchy;
 pub use image::{Image, SOURCE_MESH, SOURCE_NONE};
 pub use mesh::GpuMesh;
 pub use ori::GpuOri;
+pub use ori_hierarchy::Visit;
 pub use renderer::{Renderer, RendererOptions};
 /// The bias of option 5 ([`Priority::BiasedDepth`]): `cos / OPTION5_BIAS_DIVISOR` of the
 /// depth range, as `ori_eval`'s evaluator.
