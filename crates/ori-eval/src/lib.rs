@@ -270,6 +270,13 @@ impl<'a> Evaluator<'a> {
         coverage::coverage(view, &self.coverage_mesh, self.alpha.as_ref())
     }
 
+    /// Pixels whose nearest surface faces the viewer or is double-sided (a subset of
+    /// [`Evaluator::mesh_coverage`]): the reference of a part cut out of a closed model, whose
+    /// inside, seen through the cut, the neighbouring parts hide.
+    pub fn front_coverage(&self, view: &OrthoView) -> Mask {
+        reference::front_coverage(self.mesh, self.alpha.as_ref(), view)
+    }
+
     /// The full reference render of the mesh.
     pub fn render_mesh(&self, view: &OrthoView) -> Result<Render, EvalError> {
         reference::render(self.mesh, self.alpha.as_ref(), view)

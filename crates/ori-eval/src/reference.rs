@@ -6,7 +6,7 @@ use ori_bake::{BakeParams, EMPTY_DEPTH, ReliefMap};
 use ori_mesh::{AlphaMode, Mesh, Wrap};
 use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
 
-use crate::{EvalError, NO_SOURCE, Render};
+use crate::{EvalError, Mask, NO_SOURCE, Render};
 
 /// The evaluation view of `mesh` along `w` (unit, towards the viewer): orthographic, `s0`
 /// pixels square, framed so that the square bounding box of the object's projection has edge
@@ -118,6 +118,37 @@ fn raster(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &OrthoView) -> ori_ra
         keep: &keep,
     });
     rasterize(view, &mesh.positions, &mesh.triangles, test.as_ref())
+}
+
+/// Pixels whose nearest surface faces the viewer (its winding's normal has a positive
+/// component along the view direction) or is double-sided: what stays visible of a cut-out
+/// part of a closed model once the neighbouring parts are drawn around it (through a cut one
+/// sees the model's inside, back faces, which the neighbours hide).
+pub(crate) fn front_coverage(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &OrthoView) -> Mask {
+    let r = raster(mesh, alpha, view);
+    let d = view.frame.d;
+    let mut mask = Mask::new(view.size);
+    for (i, &tri) in r.tri.iter().enumerate() {
+        if tri == EMPTY {
+            continue;
+        }
+        let t = tri as usize;
+        let material = &mesh.materials[mesh.triangle_materials[t] as usize];
+        let [a, b, c] = mesh.triangles[t].map(|v| mesh.positions[v as usize].map(f64::from));
+        let (e, f) = (
+            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+        );
+        let n = [
+            e[1] * f[2] - e[2] * f[1],
+            e[2] * f[0] - e[0] * f[2],
+            e[0] * f[1] - e[1] * f[0],
+        ];
+        if material.double_sided || n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
+            mask.set(i);
+        }
+    }
+    mask
 }
 
 /// The full reference: coverage and exact depth from the rasterizer, albedo and normal from a

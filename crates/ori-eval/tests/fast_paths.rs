@@ -84,3 +84,34 @@ fn alpha_tested_coverage_is_the_baked_coverage() {
         assert_eq!(ev.mesh_coverage(&view), expected, "direction {w:?}");
     }
 }
+
+#[test]
+fn front_coverage_leaves_out_the_inside_seen_through_a_cut() {
+    // The bunny cut in half across x: from +x one looks into the cut and sees the inside of
+    // the far half's shell (back faces); from -x the outside. Front coverage is a subset of
+    // coverage, equal to it where no back face is nearest.
+    let (mesh, set) = common::bunny();
+    let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+    for p in &mesh.positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(f64::from(p[k]));
+            hi[k] = hi[k].max(f64::from(p[k]));
+        }
+    }
+    let mid = (lo[0] + hi[0]) / 2.0;
+    let half = ori_mesh::clip_to_box(mesh, lo, [mid, hi[1], hi[2]]).unwrap();
+    let ev = Evaluator::new(&half, set, &EvalParams::default()).unwrap();
+    let count = |w: [f64; 3]| {
+        let view = ev.view(w).unwrap();
+        let (all, front) = (ev.mesh_coverage(&view), ev.front_coverage(&view));
+        assert_eq!(front.count_minus(&all), 0, "front coverage within coverage");
+        (all.count(), front.count())
+    };
+    let (all, front) = count([1.0, 0.0, 0.0]);
+    assert!(
+        front < all * 9 / 10,
+        "looking into the cut: {front} of {all}"
+    );
+    let (all, front) = count([-1.0, 0.0, 0.0]);
+    assert!(front > all * 99 / 100, "from outside: {front} of {all}");
+}

@@ -41,7 +41,7 @@ impl Default for HierarchyParams {
             enabled: false,
             split: SplitKind::Octree,
             max_depth: 2,
-            target_px: 512.0,
+            target_px: 256.0,
             inflate: 0.01,
         }
     }

@@ -177,13 +177,15 @@ impl Chain {
 }
 
 /// Add the chain of one ORI of `asset` (labelled `label` in progress and messages) over the
-/// mesh output `mesh` = (job, output name).
+/// mesh output `mesh` = (job, output name); `node`: a hierarchy node below the root, whose
+/// selection counts only what the neighbouring nodes leave visible.
 fn plan_chain(
     graph: &mut Graph,
     stages: &Stages,
     label: &str,
     planned: &PlannedAsset,
     mesh: (JobId, &str),
+    node: bool,
 ) -> Chain {
     let (asset, params) = (&planned.asset, &planned.params);
     let job = |stage: &Arc<dyn ori_graph::Stage>, params, inputs| JobSpec {
@@ -206,9 +208,13 @@ fn plan_chain(
             (stages::VIEWS.into(), output(views, stages::VIEWS)),
         ],
     ));
+    let mut select_json = select_params(params);
+    if node {
+        select_json["against"] = stages::FRONT_FACES.into();
+    }
     let select = graph.add(job(
         &stages.select,
-        select_params(params),
+        select_json,
         vec![
             mesh_input(),
             (stages::MAPS.into(), output(bake, stages::MAPS)),
@@ -317,6 +323,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
             &asset.name,
             planned,
             (ingest, ingest::MESH),
+            false,
         );
         let mut nodes = Vec::new();
         let mut package = root.package;
@@ -326,7 +333,14 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
                 let label = node_label(&asset.name, i);
                 let cell = node.clip.as_ref().unwrap_or(&node.cell);
                 let clip = plan_clip(&mut graph, &stages, label.clone(), ingest, cell);
-                let chain = plan_chain(&mut graph, &stages, &label, planned, (clip, ingest::MESH));
+                let chain = plan_chain(
+                    &mut graph,
+                    &stages,
+                    &label,
+                    planned,
+                    (clip, ingest::MESH),
+                    true,
+                );
                 nodes.push(clip);
                 nodes.extend(chain.jobs());
                 node_packages.push(chain.package);

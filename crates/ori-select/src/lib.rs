@@ -171,15 +171,31 @@ impl Selection {
     }
 }
 
-/// The masks [`choose`] needs for direction `w`: the mesh's coverage and, for each of the `m`
-/// closest facing impostors (closest first), the pixels of that coverage it draws.
+/// What coverage error is measured against.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Reference {
+    /// Every pixel the mesh covers (the GUIDE's definition; single ORIs).
+    #[default]
+    Coverage,
+    /// Only pixels whose nearest surface faces the viewer: a hierarchy node's part of a closed
+    /// model, whose inside (seen through the cuts) the neighbouring nodes hide at runtime.
+    FrontFaces,
+}
+
+/// The masks [`choose`] needs for direction `w`: the mesh's coverage (or, for
+/// [`Reference::FrontFaces`], its front-facing part) and, for each of the `m` closest facing
+/// impostors (closest first), the pixels of that coverage it draws.
 pub fn view_masks(
     evaluator: &Evaluator<'_>,
     w: [f64; 3],
     m: usize,
+    against: Reference,
 ) -> Result<ViewMasks, SelectError> {
     let view = evaluator.view(w)?;
-    let reference = evaluator.mesh_coverage(&view);
+    let reference = match against {
+        Reference::Coverage => evaluator.mesh_coverage(&view),
+        Reference::FrontFaces => evaluator.front_coverage(&view),
+    };
     let candidates = evaluator
         .facing(w)
         .into_iter()
@@ -197,10 +213,11 @@ pub fn all_view_masks(
     evaluator: &Evaluator<'_>,
     directions: &[[f64; 3]],
     m: usize,
+    against: Reference,
 ) -> Result<Vec<ViewMasks>, SelectError> {
     directions
         .par_iter()
-        .map(|&w| view_masks(evaluator, w, m))
+        .map(|&w| view_masks(evaluator, w, m, against))
         .collect()
 }
 
@@ -237,9 +254,19 @@ pub fn select(
     set: &ReliefSet,
     params: &SelectParams,
 ) -> Result<Selection, SelectError> {
+    select_against(mesh, set, params, Reference::Coverage)
+}
+
+/// [`select`] with coverage error measured against `against`.
+pub fn select_against(
+    mesh: &Mesh,
+    set: &ReliefSet,
+    params: &SelectParams,
+    against: Reference,
+) -> Result<Selection, SelectError> {
     params.validate()?;
     let evaluator = Evaluator::new(mesh, set, &params.eval_params())?;
     let directions = ori_views::evaluation_directions();
-    let masks = all_view_masks(&evaluator, &directions, params.rule.m() as usize)?;
+    let masks = all_view_masks(&evaluator, &directions, params.rule.m() as usize, against)?;
     select_from_masks(&masks, params, set.maps.len())
 }
