@@ -175,7 +175,18 @@ fn pictures_of(
         .map_err(|e| format!("{}: {e}", package_path.display()))?
     {
         ori_package::AnyPackage::Single(p) => p,
-        ori_package::AnyPackage::Hierarchy(h) => h.nodes.into_iter().next().expect("a root"),
+        ori_package::AnyPackage::Hierarchy(h) => {
+            let leaves = h.manifest.nodes.iter().filter(|n| n.children.is_empty()).count();
+            s.notes.push(format!(
+                "A hierarchy of {} nodes ({leaves} leaves, node PLTs {:.0} to {:.0} px): the \
+                 pictures show its root, the whole object as one ORI; texture bytes count \
+                 every node.",
+                h.nodes.len(),
+                h.nodes.iter().map(|n| n.manifest.plt.pixels).fold(f64::MAX, f64::min),
+                h.nodes.iter().map(|n| n.manifest.plt.pixels).fold(0.0, f64::max),
+            ));
+            h.nodes.into_iter().next().expect("a root")
+        }
     };
     let m = &package.manifest;
     s.impostors = Some(m.impostors.len());
