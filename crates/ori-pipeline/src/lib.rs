@@ -90,6 +90,9 @@ pub struct AssetJobs {
     pub package: JobId,
     /// The other nodes' jobs of a hierarchy (clip and chain), upstream first.
     pub nodes: Vec<JobId>,
+    /// Per hierarchy node, root first: the job whose `mesh` output is its mesh (ingest for
+    /// the root, else its clip) and its PLT job. Just the root's for a single ORI.
+    pub measured: Vec<(JobId, JobId)>,
 }
 
 impl AssetJobs {
@@ -326,6 +329,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
             false,
         );
         let mut nodes = Vec::new();
+        let mut measured = vec![(ingest, root.plt)];
         let mut package = root.package;
         if let Some(tree) = &planned.tree {
             let mut node_packages = vec![root.package];
@@ -343,6 +347,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
                 );
                 nodes.push(clip);
                 nodes.extend(chain.jobs());
+                measured.push((clip, chain.plt));
                 node_packages.push(chain.package);
             }
             if !planned.measure_only {
@@ -371,6 +376,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
             compress: root.compress.unwrap_or(root.plt),
             package: package.unwrap_or(root.plt),
             nodes,
+            measured,
         });
     }
     (graph, jobs)
@@ -966,10 +972,7 @@ fn choose_trees(
         run(&graph, &mut |build| {
             for (&i, j) in batch.iter().zip(&jobs) {
                 let tree = trees[i].as_mut().expect("a hierarchy");
-                // Per node: (mesh job, plt job), in `plan`'s order.
-                let mut node_jobs = vec![(j.ingest, j.plt)];
-                node_jobs.extend(j.nodes.chunks(5).map(|c| (c[0], c[4])));
-                for (k, &(mesh_job, plt_job)) in node_jobs.iter().enumerate() {
+                for (k, &(mesh_job, plt_job)) in j.measured.iter().enumerate() {
                     if k < measured[i].len() {
                         continue;
                     }

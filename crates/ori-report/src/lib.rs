@@ -176,14 +176,16 @@ fn pictures_of(
     {
         ori_package::AnyPackage::Single(p) => p,
         ori_package::AnyPackage::Hierarchy(h) => {
-            let leaves = h.manifest.nodes.iter().filter(|n| n.children.is_empty()).count();
+            let leaves = h.manifest.nodes.iter();
+            let leaves = leaves.filter(|n| n.children.is_empty()).count();
+            let plts: Vec<f64> = h.nodes.iter().map(|n| n.manifest.plt.pixels).collect();
             s.notes.push(format!(
                 "A hierarchy of {} nodes ({leaves} leaves, node PLTs {:.0} to {:.0} px): the \
                  pictures show its root, the whole object as one ORI; texture bytes count \
                  every node.",
-                h.nodes.len(),
-                h.nodes.iter().map(|n| n.manifest.plt.pixels).fold(f64::MAX, f64::min),
-                h.nodes.iter().map(|n| n.manifest.plt.pixels).fold(0.0, f64::max),
+                plts.len(),
+                plts.iter().copied().fold(f64::MAX, f64::min),
+                plts.iter().copied().fold(0.0, f64::max),
             ));
             h.nodes.into_iter().next().expect("a root")
         }
