@@ -153,13 +153,7 @@ fn a_camera_path_keeps_every_drawn_node_within_its_plt() {
     let (mut saw_root, mut saw_children, mut saw_mesh) = (false, false, false);
     for step in 0..8 {
         let edge = 0.5 * root_plt * (16.0 * largest / root_plt).powf(f64::from(step) / 7.0);
-        // The distance at which the sphere's projection has that edge, on the view axis.
-        let focal = f64::from(size) / 2.0 / (fov / 2.0).tan();
-        let t = edge / (2.0 * focal);
-        let distance = radius * (1.0 + t * t).sqrt() / t;
-        let eye = std::array::from_fn(|k| center[k] + dir[k] * distance);
-        let near = (distance - radius).max(distance * 1e-3);
-        let camera = Camera::perspective(eye, center, fov, near, distance + 2.0 * radius);
+        let camera = Camera::perspective_sized(center, radius, dir, fov, edge, size);
         let visits = gpu.traverse(&camera, size);
         for &v in &visits {
             let node = &h.nodes[v.node()].manifest;

@@ -279,17 +279,10 @@ fn cameras(
     };
     let (far, near) = (0.25 * root.plt.pixels, 4.0 * largest);
     let fov = 0.8f64;
-    let focal = f64::from(size) / 2.0 / (fov / 2.0).tan();
-    let dir = directions[0];
     (0..steps)
         .map(|k| {
             let edge = far * (near / far).powf(f64::from(k) / f64::from(steps - 1));
-            // The distance at which the sphere's projection has that edge.
-            let t = edge / (2.0 * focal);
-            let distance = radius * (1.0 + t * t).sqrt() / t;
-            let eye = std::array::from_fn(|i| center[i] + dir[i] * distance);
-            let near_plane = (distance - radius).max(1e-3 * distance);
-            let camera = Camera::perspective(eye, center, fov, near_plane, distance + 2.0 * radius);
+            let camera = Camera::perspective_sized(center, radius, directions[0], fov, edge, size);
             (camera, format!("step {k}: object {edge:.0} px"))
         })
         .collect()

@@ -134,16 +134,7 @@ pub(crate) fn front_coverage(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &O
         }
         let t = tri as usize;
         let material = &mesh.materials[mesh.triangle_materials[t] as usize];
-        let [a, b, c] = mesh.triangles[t].map(|v| mesh.positions[v as usize].map(f64::from));
-        let (e, f) = (
-            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-        );
-        let n = [
-            e[1] * f[2] - e[2] * f[1],
-            e[2] * f[0] - e[0] * f[2],
-            e[0] * f[1] - e[1] * f[0],
-        ];
+        let n = ori_mesh::face_normal(&mesh.positions, mesh.triangles[t]);
         if material.double_sided || n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
             mask.set(i);
         }

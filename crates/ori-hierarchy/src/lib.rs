@@ -161,20 +161,20 @@ pub fn ori_fits(
 
 /// The runtime traversal, pre-order from the root: a node that fits ([`ori_fits`]) is drawn
 /// as its ORI; otherwise its children are visited in order; a leaf that does not fit is drawn
-/// as its mesh. `nodes[i]` is node `i`'s package manifest; `projected_edge(center, radius)`
+/// as its mesh. `node(i)` is node `i`'s package manifest; `projected_edge(center, radius)`
 /// the edge in pixels of the square bounding the sphere's projection
 /// (`ori_plt::sphere_projected_edge` for a perspective camera, `ori_plt::ortho_sphere_edge`
 /// for an orthographic one), `None` when unbounded.
-pub fn traverse(
+pub fn traverse<'m>(
     tree: &HierarchyManifest,
-    nodes: &[Manifest],
+    node: impl Fn(usize) -> &'m Manifest,
     projected_edge: &dyn Fn([f64; 3], f64) -> Option<f64>,
 ) -> Vec<Visit> {
     let mut out = Vec::new();
     let mut stack = vec![0usize];
     while let Some(i) = stack.pop() {
         let children = &tree.nodes[i].children;
-        if ori_fits(&nodes[i], projected_edge) {
+        if ori_fits(node(i), projected_edge) {
             out.push(Visit::Ori(i));
         } else if children.is_empty() {
             out.push(Visit::Mesh(i));

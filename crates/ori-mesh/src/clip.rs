@@ -169,18 +169,9 @@ pub fn clip_to_box(mesh: &Mesh, min: [f64; 3], max: [f64; 3]) -> Option<Mesh> {
     (!out.triangles.is_empty()).then_some(out)
 }
 
-/// Twice the area of a triangle (squared length of the cross product, in f64).
+/// Four times the squared area of a triangle (the squared length of its face normal).
 fn area2(positions: &[[f32; 3]], t: [u32; 3]) -> f64 {
-    let [a, b, c] = t.map(|i| positions[i as usize].map(f64::from));
-    let (e, f) = (
-        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
-        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
-    );
-    let n = [
-        e[1] * f[2] - e[2] * f[1],
-        e[2] * f[0] - e[0] * f[2],
-        e[0] * f[1] - e[1] * f[0],
-    ];
+    let n = crate::face_normal(positions, t);
     n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
 }
 

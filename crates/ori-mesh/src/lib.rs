@@ -29,7 +29,7 @@ mod texture;
 pub use clip::clip_to_box;
 pub use codec::DecodeError;
 pub use error::{ErrorKind, MeshError};
-pub use normals::angle_weighted_normals;
+pub use normals::{angle_weighted_normals, face_normal};
 
 use std::io;
 use std::path::Path;

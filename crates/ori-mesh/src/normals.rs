@@ -12,7 +12,7 @@ pub fn angle_weighted_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) ->
         let e0 = sub(b, a);
         let e1 = sub(c, b);
         let e2 = sub(a, c);
-        let n = cross(e0, sub(c, a));
+        let n = face_normal(positions, *tri);
         let len = dot(n, n).sqrt();
         if len == 0.0 || !len.is_finite() {
             continue; // degenerate: no direction to contribute
@@ -40,6 +40,13 @@ pub fn angle_weighted_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]]) ->
             }
         })
         .collect()
+}
+
+/// The unnormalised normal of triangle `tri` by its winding (`(b - a) x (c - a)`, in `f64`):
+/// its length is twice the triangle's area.
+pub fn face_normal(positions: &[[f32; 3]], tri: [u32; 3]) -> [f64; 3] {
+    let [a, b, c] = tri.map(|i| positions[i as usize].map(f64::from));
+    cross(sub(b, a), sub(c, a))
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {

@@ -205,28 +205,24 @@ impl Stage for HierarchyStage {
     }
 }
 
-/// What the tree search needs measured for one node: its mesh's vertices and its PLT.
+/// What the tree search needs measured for one node.
 pub struct Measured {
-    pub vertices: Vec<[f32; 3]>,
     pub plt_px: f64,
+    /// The node mesh's vertices, kept only for a kd split (its median).
+    pub vertices: Vec<[f32; 3]>,
 }
 
-/// The next step of one tree's search, given what is known of its nodes (`measured[i]` for
-/// every node, `None` when its chain failed): the cells to clip for the children of every
-/// node that needs splitting and has not been split yet, as (parent, child cell, clip box).
-/// `split_done[i]` marks nodes already decided.
+/// The next step of one tree's search: the cells to clip for the children of every node from
+/// `from` on (the nodes measured last round) that needs splitting, as (parent, child cell,
+/// clip box). `measured[i]` is `None` when node `i`'s chain failed: it is not split.
 pub fn children_to_try(
     params: &HierarchyParams,
     tree: &PlannedTree,
     measured: &[Option<Measured>],
-    split_done: &mut [bool],
+    from: usize,
 ) -> Vec<(usize, Cell, Cell)> {
     let mut out = Vec::new();
-    for (i, node) in tree.nodes.iter().enumerate() {
-        if split_done[i] {
-            continue;
-        }
-        split_done[i] = true;
+    for (i, node) in tree.nodes.iter().enumerate().skip(from) {
         let Some(m) = &measured[i] else { continue };
         if m.plt_px >= params.target_px || node.depth >= params.max_depth {
             continue;

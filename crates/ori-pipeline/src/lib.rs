@@ -925,12 +925,14 @@ fn choose_trees(
     run: &mut dyn FnMut(&Graph, &mut ReadBuild<'_>),
 ) -> Vec<Option<hierarchy::PlannedTree>> {
     use hierarchy::{Measured, PlannedNode, PlannedTree};
+    use ori_hierarchy::Cell;
     let mut trees: Vec<Option<PlannedTree>> = params
         .iter()
         .map(|p| {
             p.hierarchy.enabled.then(|| PlannedTree {
                 nodes: vec![PlannedNode {
-                    cell: ori_hierarchy::Cell {
+                    // Set from the root's mesh once measured.
+                    cell: Cell {
                         min: [0.0; 3],
                         max: [0.0; 3],
                     },
@@ -941,12 +943,9 @@ fn choose_trees(
             })
         })
         .collect();
-    let mut measured: Vec<Vec<Option<Measured>>> = Vec::new();
-    let mut split_done: Vec<Vec<bool>> = Vec::new();
-    for _ in assets {
-        measured.push(Vec::new());
-        split_done.push(Vec::new());
-    }
+    let mut measured: Vec<Vec<Option<Measured>>> = assets.iter().map(|_| Vec::new()).collect();
+    // Per tree, how many nodes have had their split decided.
+    let mut decided = vec![0; assets.len()];
     loop {
         // Measure the nodes added last round (the whole tree is planned; the rest is cached).
         let batch: Vec<usize> = (0..assets.len())
@@ -972,33 +971,38 @@ fn choose_trees(
         run(&graph, &mut |build| {
             for (&i, j) in batch.iter().zip(&jobs) {
                 let tree = trees[i].as_mut().expect("a hierarchy");
-                for (k, &(mesh_job, plt_job)) in j.measured.iter().enumerate() {
-                    if k < measured[i].len() {
-                        continue;
-                    }
-                    let mesh = build
-                        .read_output(mesh_job, ingest::MESH)
-                        .ok()
-                        .and_then(|b| ori_mesh::Mesh::decode(&b).ok());
+                let kd = params[i].hierarchy.split == ori_package::SplitKind::Kd;
+                let from = measured[i].len();
+                for (k, &(mesh_job, plt_job)) in j.measured.iter().enumerate().skip(from) {
                     let plt = build
                         .read_output(plt_job, stages::PLT)
                         .ok()
                         .and_then(|b| ori_plt::Plt::decode(&b).ok());
-                    if k == 0
-                        && let Some(cube) = mesh
+                    // The mesh is read only where it decides something: the root's cube, kd
+                    // medians.
+                    let mesh = (k == 0 || kd)
+                        .then(|| build.read_output(mesh_job, ingest::MESH).ok())
+                        .flatten()
+                        .and_then(|b| ori_mesh::Mesh::decode(&b).ok());
+                    if k == 0 {
+                        match mesh
                             .as_ref()
-                            .and_then(|m| ori_hierarchy::Cell::bounding_cube(&m.positions))
-                    {
-                        tree.nodes[0].cell = cube;
+                            .and_then(|m| Cell::bounding_cube(&m.positions))
+                        {
+                            Some(cube) => tree.nodes[0].cell = cube,
+                            None => {
+                                measured[i].push(None);
+                                continue;
+                            }
+                        }
                     }
-                    measured[i].push(match (mesh, plt) {
-                        (Some(m), Some(p)) => Some(Measured {
-                            vertices: m.positions,
-                            plt_px: p.pixels(),
-                        }),
-                        _ => None,
-                    });
-                    split_done[i].push(false);
+                    measured[i].push(plt.map(|p| Measured {
+                        plt_px: p.pixels(),
+                        vertices: match (kd, mesh) {
+                            (true, Some(m)) => m.positions,
+                            _ => Vec::new(),
+                        },
+                    }));
                 }
             }
         });
@@ -1006,12 +1010,11 @@ fn choose_trees(
         let mut tries = Vec::new();
         for &i in &batch {
             let tree = trees[i].as_ref().expect("a hierarchy");
-            let children = hierarchy::children_to_try(
-                &params[i].hierarchy,
-                tree,
-                &measured[i],
-                &mut split_done[i],
-            );
+            // The nodes measured this round: those the last clip round added.
+            let from = decided[i];
+            decided[i] = tree.nodes.len();
+            let children =
+                hierarchy::children_to_try(&params[i].hierarchy, tree, &measured[i], from);
             if !children.is_empty() {
                 tries.push((i, children));
             }

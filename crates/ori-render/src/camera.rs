@@ -122,6 +122,27 @@ impl Camera {
         )
     }
 
+    /// A perspective camera looking at the sphere `(center, radius)` from direction `dir`
+    /// (towards the viewer), at the distance where the sphere's projection in an image
+    /// `height` pixels high has edge `edge_px` ([`Camera::projected_sphere_edge`]); vertical
+    /// field of view `fov_y` (radians).
+    pub fn perspective_sized(
+        center: [f64; 3],
+        radius: f64,
+        dir: [f64; 3],
+        fov_y: f64,
+        edge_px: f64,
+        height: u32,
+    ) -> Camera {
+        let dir = normalize(dir);
+        // The centred sphere's edge is 2 f r / sqrt(z^2 - r^2); solve for z.
+        let t = edge_px / (f64::from(height) / (fov_y / 2.0).tan());
+        let distance = radius * (1.0 + t * t).sqrt() / t;
+        let eye = std::array::from_fn(|k| center[k] + dir[k] * distance);
+        let near = (distance - radius).max(1e-3 * distance);
+        Camera::perspective(eye, center, fov_y, near, distance + 2.0 * radius)
+    }
+
     /// The direction from `target` (an object's centre) towards the viewer: what the
     /// selection table is looked up with. `frame.d` for an orthographic camera.
     pub fn view_direction(&self, target: [f64; 3]) -> [f64; 3] {

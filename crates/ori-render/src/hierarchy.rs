@@ -2,14 +2,13 @@
 //! (`ori_hierarchy::traverse`) with option 5 between and within nodes.
 
 use ori_hierarchy::Visit;
-use ori_package::{Hierarchy, HierarchyManifest, Manifest};
+use ori_package::{Hierarchy, HierarchyManifest};
 
 use crate::{Camera, Draw, GpuMesh, GpuOri, Priority, RenderError, Renderer};
 
 /// A hierarchy ready to draw: made by [`Renderer::load_hierarchy`].
 pub struct GpuHierarchy {
     tree: HierarchyManifest,
-    manifests: Vec<Manifest>,
     nodes: Vec<GpuOri>,
 }
 
@@ -28,7 +27,6 @@ impl Renderer {
         }
         Ok(GpuHierarchy {
             tree: hierarchy.manifest.clone(),
-            manifests: hierarchy.nodes.iter().map(|p| p.manifest.clone()).collect(),
             nodes,
         })
     }
@@ -48,7 +46,7 @@ impl GpuHierarchy {
     /// What the runtime draws for `camera` in an image `height` pixels high: the traversal
     /// with each node's bounding sphere projected by the camera.
     pub fn traverse(&self, camera: &Camera, height: u32) -> Vec<Visit> {
-        ori_hierarchy::traverse(&self.tree, &self.manifests, &|c, r| {
+        ori_hierarchy::traverse(&self.tree, |i| self.nodes[i].manifest(), &|c, r| {
             camera.projected_sphere_edge(c, r, height)
         })
     }
