@@ -8,7 +8,8 @@
 //
 //   1. ray: the pixel centre's ray in texture space, `(x, y) = o + z * dir`, `o` where it
 //      crosses depth code 0 (x, y in texels, z in depth codes, 0 nearest the viewer);
-//   2. extent: the part `[z_in, z_out]` of the ray inside the occupied relief volume;
+//   2. extent: the part `[z_in, z_out]` of the ray inside the occupied relief volume,
+//      narrowed to the columns of the map's column grid the ray crosses (`narrow`);
 //   3. lookup: nearest texel, `textureLoad` of `floor(x, y)`, 255 (empty) outside the map;
 //   4. linear search: `linear_steps` samples `z_in + k * (z_out - z_in) / L`, the first with
 //      `z >= code` ends it;
@@ -73,7 +74,8 @@ struct Impostor {
     // Texture array layer, projection (0 orthographic, 1 perspective), linear steps,
     // binary steps.
     info: vec4<u32>,
-    // x: impostor index (written to the source target).
+    // x: impostor index (written to the source target); y: cells per side of the map's
+    // column grid (layer L's tops start at L * y * y in `column_tops`).
     ids: vec4<u32>,
 };
 
@@ -83,6 +85,15 @@ struct Impostor {
 @group(1) @binding(0) var depth_maps: texture_2d_array<f32>;
 @group(1) @binding(1) var normal_maps: texture_2d_array<f32>;
 @group(1) @binding(2) var albedo_maps: texture_2d_array<f32>;
+// Every map's column grid (`ori_eval::march::Columns`): per cell of COLUMN_CELL x COLUMN_CELL
+// texels the least depth code of its non-empty texels, 255 when none; one u32 per cell.
+@group(1) @binding(3) var<storage, read> column_tops: array<u32>;
+
+const COLUMN_CELL: f32 = 8.0;
+// 1 / COLUMN_CELL, exact.
+const CELL_SCALE: f32 = 0.125;
+// A depth no ray reaches (a stand-in for infinity).
+const FAR: f32 = 3.0e38;
 
 // The box's 12 triangles, wound counter-clockwise seen from outside; corner bits are x, y, z.
 var<private> BOX: array<u32, 36> = array<u32, 36>(
@@ -148,6 +159,145 @@ fn clip_axis(o: f32, d: f32, lo: f32, hi: f32, span: ptr<function, vec2<f32>>) -
     return (*span).x < (*span).y;
 }
 
+// Boundary crossings of one axis of the ray `o + z d` against the column grid
+// (`Axis` in `crates/ori-eval/src/march.rs`): cell `i` spans boundaries `i` and `i + 1`, at
+// `b * COLUMN_CELL` texels; the ray crosses boundary `b` at `(b * COLUMN_CELL - o) * inv`.
+struct Axis {
+    o: f32,
+    inv: f32,
+    step: i32,
+    entry: i32,
+    exit: i32,
+};
+
+fn axis(o: f32, d: f32) -> Axis {
+    var a: Axis;
+    a.o = o;
+    a.inv = 0.0;
+    a.step = 0;
+    a.entry = 0;
+    a.exit = 0;
+    if d != 0.0 {
+        a.inv = 1.0 / d;
+    }
+    if d > 0.0 {
+        a.step = 1;
+        a.exit = 1;
+    } else if d < 0.0 {
+        a.step = -1;
+        a.entry = 1;
+    }
+    return a;
+}
+
+fn cell_entry(a: Axis, i: i32) -> f32 {
+    if a.step == 0 {
+        return -FAR;
+    }
+    return (f32(i + a.entry) * COLUMN_CELL - a.o) * a.inv;
+}
+
+fn cell_exit(a: Axis, i: i32) -> f32 {
+    if a.step == 0 {
+        return FAR;
+    }
+    return (f32(i + a.exit) * COLUMN_CELL - a.o) * a.inv;
+}
+
+fn cell_of(c: f32, k: i32) -> i32 {
+    return clamp(i32(c * CELL_SCALE), 0, k - 1);
+}
+
+// Rule 2's narrowing to the columns the ray crosses (`Columns::narrow` in
+// `crates/ori-eval/src/march.rs`, the same f32 operations): cells are walked from the front
+// to the first column entry, and from the back to the last column exit; the segment runs from
+// that entry, moved back by one texel of travel, to that exit. Empty: x >= y.
+fn narrow(layer: u32, cells: u32, ox: f32, oy: f32, dx: f32, dy: f32, span: vec2<f32>) -> vec2<f32> {
+    let za = span.x;
+    let zb = span.y;
+    let k = i32(cells);
+    let base = layer * cells * cells;
+    let ax = axis(ox, dx);
+    let ay = axis(oy, dy);
+    let nothing = vec2<f32>(0.0, 0.0);
+    // From the front.
+    var i = cell_of(ox + za * dx, k);
+    var j = cell_of(oy + za * dy, k);
+    var in_x = cell_entry(ax, i);
+    var out_x = cell_exit(ax, i);
+    var in_y = cell_entry(ay, j);
+    var out_y = cell_exit(ay, j);
+    var first = FAR;
+    for (var n = 0; n < 2 * k + 2; n++) {
+        let lo = max(max(za, in_x), in_y);
+        let hi = min(min(zb, out_x), out_y);
+        let top = f32(column_tops[base + u32(j * k + i)]);
+        if top < 255.0 && max(lo, top - 1.0) < hi {
+            first = max(lo, top - 1.0);
+            break;
+        }
+        if hi >= zb {
+            break;
+        }
+        if out_x <= out_y {
+            i += ax.step;
+            in_x = out_x;
+            out_x = cell_exit(ax, i);
+        } else {
+            j += ay.step;
+            in_y = out_y;
+            out_y = cell_exit(ay, j);
+        }
+        if !(i >= 0 && j >= 0 && i < k && j < k) {
+            break;
+        }
+    }
+    if !(first < FAR) {
+        return nothing;
+    }
+    // From the back.
+    i = cell_of(ox + zb * dx, k);
+    j = cell_of(oy + zb * dy, k);
+    in_x = cell_entry(ax, i);
+    out_x = cell_exit(ax, i);
+    in_y = cell_entry(ay, j);
+    out_y = cell_exit(ay, j);
+    var last = -FAR;
+    for (var n = 0; n < 2 * k + 2; n++) {
+        let lo = max(max(za, in_x), in_y);
+        let hi = min(min(zb, out_x), out_y);
+        let top = f32(column_tops[base + u32(j * k + i)]);
+        if top < 255.0 && max(lo, top - 1.0) < hi {
+            last = hi;
+            break;
+        }
+        if lo <= za {
+            break;
+        }
+        if in_x >= in_y {
+            i -= ax.step;
+            out_x = in_x;
+            in_x = cell_entry(ax, i);
+        } else {
+            j -= ay.step;
+            out_y = in_y;
+            in_y = cell_entry(ay, j);
+        }
+        if !(i >= 0 && j >= 0 && i < k && j < k) {
+            break;
+        }
+    }
+    if !(first < last) {
+        return nothing;
+    }
+    let travel = max(abs(dx), abs(dy));
+    var start = za;
+    if travel > 0.0 {
+        start = max(first - 1.0 / travel, za);
+    }
+    return vec2<f32>(start, last);
+}
+
 struct Hit {
     found: bool,
     texel: vec2<i32>,
@@ -187,6 +337,10 @@ fn trace(imp: Impostor, px: f32, py: f32) -> Hit {
         return miss;
     }
     let layer = imp.info.x;
+    span = narrow(layer, imp.ids.y, ox, oy, dx, dy, span);
+    if !(span.x < span.y) {
+        return miss;
+    }
     let n = imp.depth_range.z;
     let linear_steps = imp.info.z;
     let z_in = span.x;

@@ -24,7 +24,8 @@
 //!   the bake's alpha test), so holes in a scan show what is behind them.
 //! - **Facing.** An impostor faces the viewer when `d . w > 0`; only facing impostors draw.
 //!   Its quad is extended for skewed views: every pixel whose ray meets the relief volume is
-//!   traced; the search covers the part of the ray inside the volume.
+//!   traced; the search covers the part of the ray inside the volume, narrowed to the
+//!   columns of the map's 8 x 8-texel cells that the ray crosses ([`march`], rule 2).
 //! - **Lookups.** Nearest texel, with the exact rules of [`march`] (a shader mirrors them
 //!   with `textureLoad` of `floor(position)`); empty texels and the outside of the map read
 //!   255, which no ray depth reaches.
@@ -190,6 +191,8 @@ pub struct Evaluator<'a> {
     alpha: Option<reference::AlphaCut<'a>>,
     /// Per map, where its walls are (for the fast coverage test).
     walls: Vec<WallMap>,
+    /// Per map, its occupied volume and column grid (rule 2).
+    occupancy: Vec<march::Occupancy>,
     coverage_mesh: coverage::CoverageMesh,
 }
 
@@ -226,6 +229,7 @@ impl<'a> Evaluator<'a> {
                 .iter()
                 .map(|m| WallMap::new(&m.depth, m.size(), params.march().threshold_codes()))
                 .collect(),
+            occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
             coverage_mesh: coverage::CoverageMesh::new(mesh),
         })
     }
@@ -285,7 +289,12 @@ impl<'a> Evaluator<'a> {
     /// The rays of `view` in impostor `impostor`'s texture space (`None` when it does not
     /// face the viewer).
     pub fn rays(&self, view: &OrthoView, impostor: usize) -> Option<ImpostorRays> {
-        ImpostorRays::new(view, &self.set.maps[impostor], self.params.march())
+        ImpostorRays::new(
+            view,
+            &self.set.maps[impostor],
+            &self.occupancy[impostor],
+            self.params.march(),
+        )
     }
 
     /// Pixels where impostor `impostor` produces a fragment, traced only at the pixels of

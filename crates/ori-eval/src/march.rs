@@ -15,13 +15,21 @@
 //!    so `z` grows along the ray.
 //! 2. **Extent.** The searched segment `[z_in, z_out]` is the part of the ray inside the
 //!    occupied relief volume: depth codes `[z0, z1]` (the least and greatest stored code,
-//!    widened by one code each way within `[0, 254]`) and the texel box of the non-empty texels grown by one texel on each side (so a ray entering
-//!    from a side starts over an empty texel), within the window `0 <= x, y <= N`. The quad
-//!    is extended for skewed views (every pixel whose ray meets the volume gets a fragment
-//!    shader run), and the 16 steps are spent inside the volume only: on the armadillo this
-//!    lowers best:6's average coverage error from 0.271 % to 0.246 % against the whole
-//!    window and depth range. No such part: no fragment. The box is per map
-//!    ([`occupied_volume`]); the runtime gets it with the map.
+//!    widened by one code each way within `[0, 254]`) and the texel box of the non-empty
+//!    texels grown by one texel on each side (so a ray entering from a side starts over an
+//!    empty texel), within the window `0 <= x, y <= N`; the quad is extended for skewed
+//!    views (every pixel whose ray meets the volume gets a fragment shader run). That part
+//!    is then narrowed to the *columns* the ray crosses ([`Columns::narrow`]): the map is cut
+//!    into cells of 8 x 8 texels, and under a heightfield everything below a cell's least
+//!    code (its top) is solid, so outside the columns the ray cannot be below the surface.
+//!    The segment runs from the first column entry, moved back by one texel of travel, to
+//!    the last column exit. No such part: no fragment. The 16 steps are thus spent where the
+//!    surface can be: at a grazing angle a step spans a few texels instead of a tenth of the
+//!    map, so thin parts (fingers, ears, claws) are no longer stepped over. On the armadillo
+//!    (best:6, wall threshold 0.125) the occupied volume took the average coverage error from
+//!    0.271 % to 0.246 % and the columns to 0.150 % (impostors per view 5.24 -> 3.21). The
+//!    volume's box is per map ([`occupied_volume`]) and carried by the package; the column
+//!    grid a runtime computes from the depth map when it loads it.
 //! 3. **Lookup.** Nearest texel: the sample at `(x, y)` reads the depth code of texel
 //!    `(floor x, floor y)`, 255 (empty) outside `[0, N)`. Empty is deeper than any ray depth,
 //!    so a ray always passes over an empty texel.
@@ -97,6 +105,9 @@ pub struct ImpostorRays {
     /// The relief volume actually occupied: texel-space box `[x0, x1] x [y0, y1]` and depth
     /// codes `[z0, z1]` of the non-empty texels.
     bounds: [f32; 6],
+    /// The map's column grid (rule 2's per-ray narrowing) and the rays' direction for it.
+    columns: Columns,
+    column_dir: ColumnDir,
     threshold_codes: f32,
     /// Whether the binary search always ends on a bracket shorter than a texel, so that its
     /// two samples are the same or neighbouring texels (used by [`ImpostorRays::covers`]).
@@ -116,7 +127,12 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 impl ImpostorRays {
     /// The rays of `eval`'s pixels in `map`'s texture space; `None` when the impostor does not
     /// face the viewer (`d . w <= 0`) or the geometry is degenerate.
-    pub fn new(eval: &OrthoView, map: &ReliefMap, params: MarchParams) -> Option<ImpostorRays> {
+    pub fn new(
+        eval: &OrthoView,
+        map: &ReliefMap,
+        occupancy: &Occupancy,
+        params: MarchParams,
+    ) -> Option<ImpostorRays> {
         let (ue, ve, w) = (eval.frame.u, eval.frame.v, eval.frame.d);
         let m = &map.view;
         let (u, v, d) = (m.frame.u, m.frame.v, m.frame.d);
@@ -162,7 +178,9 @@ impl ImpostorRays {
             n_f: m.size as f32,
             last: (m.size - 1) as f32,
             params,
-            bounds: occupied_volume(&map.depth, m.size as usize),
+            bounds: occupancy.volume,
+            columns: occupancy.columns.clone(),
+            column_dir: ColumnDir::new(dir[0] as f32, dir[1] as f32),
             threshold_codes: params.threshold_codes(),
             adjacent_end: final_bracket < 0.75,
             e00: (eval.near - t00[2] / zr) / eval_range,
@@ -221,7 +239,7 @@ impl ImpostorRays {
         if !(clip(ox, dx, b[0], b[1], &mut span) && clip(oy, dy, b[2], b[3], &mut span)) {
             return None;
         }
-        let (z_in, z_out) = span;
+        let (z_in, z_out) = self.columns.narrow(ox, oy, &self.column_dir, span)?;
         let step = (z_out - z_in) / self.params.linear_steps as f32;
         let mut lo = z_in;
         for k in 1..=self.params.linear_steps {
@@ -374,6 +392,16 @@ impl ImpostorRays {
                 z_out = z_out.min(a.max(b));
             }
         }
+        // Rule 2's narrowing to the columns.
+        let spans = self.columns.narrow4(
+            (ox, oy),
+            &self.column_dir,
+            (z_in, z_out),
+            open.and(z_in.lt(z_out)).to_array(),
+        );
+        let open = M4::from_array(spans.map(|s| s.is_some()));
+        let z_in = F4::from_array(spans.map(|s| s.map_or(0.0, |s| s.0)));
+        let z_out = F4::from_array(spans.map(|s| s.map_or(0.0, |s| s.1)));
         let mut searching = open.and(z_in.lt(z_out));
         let step = z_out
             .sub(z_in)
@@ -665,4 +693,389 @@ pub fn occupied_volume(depth: &[u8], n: usize) -> [f32; 6] {
         f32::from(z0),
         f32::from(z1),
     ]
+}
+
+/// What rule 2 needs of a map, computed once per map: its occupied volume
+/// ([`occupied_volume`]) and its column grid.
+#[derive(Clone, Debug)]
+pub struct Occupancy {
+    pub volume: [f32; 6],
+    pub columns: Columns,
+}
+
+impl Occupancy {
+    pub fn new(map: &ReliefMap) -> Occupancy {
+        let n = map.size() as usize;
+        Occupancy {
+            volume: occupied_volume(&map.depth, n),
+            columns: Columns::new(&map.depth, n),
+        }
+    }
+}
+
+/// Edge in texels of the cells of a map's column grid ([`Columns`]).
+pub const COLUMN_CELL: u32 = 8;
+const CELL: f32 = COLUMN_CELL as f32;
+/// `1 / CELL`, exact (a power of two): texel coordinate to cell index by a multiplication.
+const CELL_SCALE: f32 = 1.0 / CELL;
+/// A depth no ray reaches (the shader's stand-in for infinity).
+const FAR: f32 = 3.0e38;
+/// [`EMPTY_DEPTH`] as a top.
+const EMPTY: f32 = EMPTY_DEPTH as f32;
+
+/// A map's column grid: the map cut into cells of [`COLUMN_CELL`] x [`COLUMN_CELL`] texels,
+/// each with the least depth code of its non-empty texels (its *top*; [`EMPTY_DEPTH`] when it
+/// has none). Under a heightfield every texel is solid from its depth down, so a cell's
+/// column, from its top down, holds every point of the cell that lies below the surface:
+/// outside the columns a ray is above the surface or over empty texels, and the linear
+/// search spends its steps on the part of the ray that crosses them ([`Columns::narrow`]).
+/// A runtime computes the grid from the depth map when it loads it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Columns {
+    /// Cells per side: `ceil(N / COLUMN_CELL)`.
+    cells: u32,
+    /// Row-major tops.
+    tops: Vec<u8>,
+}
+
+impl Columns {
+    /// The column grid of an `n` x `n` depth map.
+    pub fn new(depth: &[u8], n: usize) -> Columns {
+        let t = COLUMN_CELL as usize;
+        let cells = n.div_ceil(t);
+        let mut tops = vec![EMPTY_DEPTH; cells * cells];
+        for (y, row) in depth.chunks_exact(n).enumerate() {
+            let line = &mut tops[(y / t) * cells..(y / t + 1) * cells];
+            for (x, &c) in row.iter().enumerate() {
+                let top = &mut line[x / t];
+                *top = (*top).min(c);
+            }
+        }
+        Columns {
+            cells: cells as u32,
+            tops,
+        }
+    }
+
+    /// Cells per side.
+    pub fn cells(&self) -> u32 {
+        self.cells
+    }
+
+    /// Row-major top codes, [`EMPTY_DEPTH`] for a cell without surface.
+    pub fn tops(&self) -> &[u8] {
+        &self.tops
+    }
+
+    /// Rule 2's narrowing: the part of the ray `(x, y) = (ox, oy) + z (dx, dy)`, `z` in
+    /// `span` (whose start lies in the map), that can go below the surface, or `None`. In the
+    /// grid cell `(i, j)` the ray runs over `[lo, hi]`, the depths where it enters and leaves
+    /// the cell ([`Columns::piece`]), and is in the column from `top - 1` down. The result runs
+    /// from the first column entry, moved back by one texel of travel (so that a ray entering
+    /// a column through its side starts over the neighbouring texel, which it is above, and
+    /// the step onto the relief is seen as the wall it is), to the last column exit. The
+    /// cells are walked from the front until the first entry and from the back until the last
+    /// exit: most rays meet a column within a few cells each way. The shader does the same
+    /// operations in `f32`.
+    #[inline]
+    pub fn narrow(
+        &self,
+        ox: f32,
+        oy: f32,
+        dir: &ColumnDir,
+        span: (f32, f32),
+    ) -> Option<(f32, f32)> {
+        let (za, zb) = span;
+        let k = self.cells as i32;
+        let (ax, ay) = (&dir.x, &dir.y);
+        let [dx, dy] = dir.d;
+        // From the front: the first piece whose column the ray enters.
+        let (mut i, mut j) = (self.cell(ox + za * dx), self.cell(oy + za * dy));
+        let (mut in_x, mut out_x) = ax.crossings(ox, i);
+        let (mut in_y, mut out_y) = ay.crossings(oy, j);
+        let mut first = FAR;
+        for _ in 0..2 * k + 2 {
+            let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
+            let top = f32::from(self.tops[(j * k + i) as usize]);
+            if top < EMPTY && lo.max(top - 1.0) < hi {
+                first = lo.max(top - 1.0);
+                break;
+            }
+            if hi >= zb {
+                break;
+            }
+            // The next cell's entry is this one's exit: the same boundary, the same value.
+            if out_x <= out_y {
+                i += ax.step;
+                (in_x, out_x) = (out_x, ax.exit(ox, i));
+            } else {
+                j += ay.step;
+                (in_y, out_y) = (out_y, ay.exit(oy, j));
+            }
+            if !(i >= 0 && j >= 0 && i < k && j < k) {
+                break;
+            }
+        }
+        (first < FAR)
+            .then(|| self.back(ox, oy, dir, span, first))
+            .flatten()
+    }
+
+    /// [`Columns::narrow`] for four rays with the same direction, the front walk in lockstep
+    /// (the same operations lane by lane); `None` for the lanes not `open`.
+    pub(crate) fn narrow4(
+        &self,
+        (ox, oy): (F4, F4),
+        dir: &ColumnDir,
+        (za, zb): (F4, F4),
+        open: [bool; 4],
+    ) -> [Option<(f32, f32)>; 4] {
+        let k = self.cells as i32;
+        let (ax, ay) = (&dir.x, &dir.y);
+        let [dx, dy] = dir.d;
+        let cells = |c: F4| {
+            let idx = c.mul(F4::splat(CELL_SCALE)).trunc();
+            F4::from_array(idx.map(|v| v.clamp(0, k - 1) as f32))
+        };
+        let (mut i, mut j) = (
+            cells(ox.add(za.mul(F4::splat(dx)))),
+            cells(oy.add(za.mul(F4::splat(dy)))),
+        );
+        // A crossing per lane: (b * CELL - o) * inv, as `Axis::at`; FAR / -FAR off the axis.
+        let at = |axis: &Axis, o: F4, b: F4, off: f32| {
+            if axis.step == 0 {
+                F4::splat(off)
+            } else {
+                b.mul(F4::splat(CELL)).sub(o).mul(F4::splat(axis.inv))
+            }
+        };
+        let entry =
+            |axis: &Axis, o: F4, i: F4| at(axis, o, i.add(F4::splat(axis.entry as f32)), -FAR);
+        let exit = |axis: &Axis, o: F4, i: F4| at(axis, o, i.add(F4::splat(axis.exit as f32)), FAR);
+        let (mut in_x, mut out_x) = (entry(ax, ox, i), exit(ax, ox, i));
+        let (mut in_y, mut out_y) = (entry(ay, oy, j), exit(ay, oy, j));
+        let (sx, sy) = (F4::splat(ax.step as f32), F4::splat(ay.step as f32));
+        let (zero, kf) = (F4::splat(0.0), F4::splat(k as f32));
+        let (one, empty) = (F4::splat(1.0), F4::splat(EMPTY));
+        let mut first = F4::splat(FAR);
+        let mut active = M4::from_array(open);
+        for _ in 0..2 * k + 2 {
+            if !active.any() {
+                break;
+            }
+            let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
+            let tops = self.tops4(i, j);
+            let entered = lo.max(tops.sub(one));
+            let found = active.and(tops.lt(empty)).and(entered.lt(hi));
+            first = F4::select(found, entered, first);
+            active = active.and_not(found).and_not(hi.ge(zb));
+            let step_x = out_x.le(out_y);
+            let (next_i, next_j) = (i.add(sx), j.add(sy));
+            i = F4::select(step_x, next_i, i);
+            j = F4::select(step_x, j, next_j);
+            (in_x, out_x) = (
+                F4::select(step_x, out_x, in_x),
+                F4::select(step_x, exit(ax, ox, next_i), out_x),
+            );
+            (in_y, out_y) = (
+                F4::select(step_x, in_y, out_y),
+                F4::select(step_x, out_y, exit(ay, oy, next_j)),
+            );
+            let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
+            active = active.and(inside);
+        }
+        // From the back, for the lanes that found a first entry.
+        let (mut i, mut j) = (
+            cells(ox.add(zb.mul(F4::splat(dx)))),
+            cells(oy.add(zb.mul(F4::splat(dy)))),
+        );
+        let (mut in_x, mut out_x) = (entry(ax, ox, i), exit(ax, ox, i));
+        let (mut in_y, mut out_y) = (entry(ay, oy, j), exit(ay, oy, j));
+        let mut last = F4::splat(-FAR);
+        let mut active = M4::from_array(open).and(first.lt(F4::splat(FAR)));
+        for _ in 0..2 * k + 2 {
+            if !active.any() {
+                break;
+            }
+            let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
+            let tops = self.tops4(i, j);
+            let found = active.and(tops.lt(empty)).and(lo.max(tops.sub(one)).lt(hi));
+            last = F4::select(found, hi, last);
+            active = active.and_not(found).and_not(lo.le(za));
+            let step_x = in_x.ge(in_y);
+            let (next_i, next_j) = (i.sub(sx), j.sub(sy));
+            i = F4::select(step_x, next_i, i);
+            j = F4::select(step_x, j, next_j);
+            (in_x, out_x) = (
+                F4::select(step_x, entry(ax, ox, next_i), in_x),
+                F4::select(step_x, in_x, out_x),
+            );
+            (in_y, out_y) = (
+                F4::select(step_x, in_y, entry(ay, oy, next_j)),
+                F4::select(step_x, out_y, in_y),
+            );
+            let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
+            active = active.and(inside);
+        }
+        let start = match dir.back_off {
+            Some(b) => first.sub(F4::splat(b)).max(za),
+            None => za,
+        };
+        let (first, last, start) = (first.to_array(), last.to_array(), start.to_array());
+        std::array::from_fn(|l| (open[l] && first[l] < last[l]).then_some((start[l], last[l])))
+    }
+
+    /// The tops of cells `(i, j)` (lanes of exact integers), clamped into the grid.
+    #[inline(always)]
+    fn tops4(&self, i: F4, j: F4) -> F4 {
+        let last = F4::splat(self.cells as f32 - 1.0);
+        let clamp = |c: F4| c.max(F4::splat(0.0)).min(last);
+        let index = clamp(j)
+            .mul(F4::splat(self.cells as f32))
+            .add(clamp(i))
+            .trunc();
+        F4::from_array(index.map(|t| f32::from(self.tops[t as usize])))
+    }
+
+    /// The cell index of texel coordinate `c`, clamped into the grid.
+    #[inline]
+    fn cell(&self, c: f32) -> i32 {
+        ((c * CELL_SCALE) as i32).clamp(0, self.cells as i32 - 1)
+    }
+
+    /// [`Columns::narrow`] after the front walk found the first column entry `first`: the
+    /// walk from the back to the last column exit, and the segment.
+    #[inline]
+    fn back(
+        &self,
+        ox: f32,
+        oy: f32,
+        dir: &ColumnDir,
+        span: (f32, f32),
+        first: f32,
+    ) -> Option<(f32, f32)> {
+        let (za, zb) = span;
+        let k = self.cells as i32;
+        let (ax, ay) = (&dir.x, &dir.y);
+        let [dx, dy] = dir.d;
+        let (mut i, mut j) = (self.cell(ox + zb * dx), self.cell(oy + zb * dy));
+        let (mut in_x, mut out_x) = ax.crossings(ox, i);
+        let (mut in_y, mut out_y) = ay.crossings(oy, j);
+        let mut last = -FAR;
+        for _ in 0..2 * k + 2 {
+            let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
+            let top = f32::from(self.tops[(j * k + i) as usize]);
+            if top < EMPTY && lo.max(top - 1.0) < hi {
+                last = hi;
+                break;
+            }
+            if lo <= za {
+                break;
+            }
+            if in_x >= in_y {
+                i -= ax.step;
+                (in_x, out_x) = (ax.entry(ox, i), in_x);
+            } else {
+                j -= ay.step;
+                (in_y, out_y) = (ay.entry(oy, j), in_y);
+            }
+            if !(i >= 0 && j >= 0 && i < k && j < k) {
+                break;
+            }
+        }
+        if first >= last {
+            return None;
+        }
+        let start = dir.back_off.map_or(za, |b| (first - b).max(za));
+        Some((start, last))
+    }
+}
+
+/// One axis of a ray direction against the cell grid: the depths at which a ray crosses the
+/// boundaries of cell column (or row) `i`, each computed from the boundary itself (never
+/// accumulated), so that walking from the front and from the back agree and neighbouring
+/// cells share the value of their common boundary.
+#[derive(Clone, Copy, Debug)]
+struct Axis {
+    /// `1 / d` (0 where `d` is 0).
+    inv: f32,
+    /// Cell step along the ray: 1, -1, or 0 where the ray does not move on this axis.
+    step: i32,
+    /// Boundary offsets of a cell's entry and exit: cell `i` spans boundaries `i` and `i + 1`.
+    entry: i32,
+    exit: i32,
+}
+
+impl Axis {
+    fn new(d: f32) -> Axis {
+        let (step, entry, exit) = if d > 0.0 {
+            (1, 0, 1)
+        } else if d < 0.0 {
+            (-1, 1, 0)
+        } else {
+            (0, 0, 0)
+        };
+        let inv = if d != 0.0 { 1.0 / d } else { 0.0 };
+        Axis {
+            inv,
+            step,
+            entry,
+            exit,
+        }
+    }
+
+    /// Depth at which the ray through `o` crosses boundary `b` (at `b * CELL` texels).
+    #[inline]
+    fn at(&self, o: f32, b: i32) -> f32 {
+        (b as f32 * CELL - o) * self.inv
+    }
+
+    /// Entry crossing of cell `i` (`-FAR` on an axis the ray does not move on).
+    #[inline]
+    fn entry(&self, o: f32, i: i32) -> f32 {
+        if self.step == 0 {
+            -FAR
+        } else {
+            self.at(o, i + self.entry)
+        }
+    }
+
+    /// Exit crossing of cell `i` (`FAR` on an axis the ray does not move on).
+    #[inline]
+    fn exit(&self, o: f32, i: i32) -> f32 {
+        if self.step == 0 {
+            FAR
+        } else {
+            self.at(o, i + self.exit)
+        }
+    }
+
+    #[inline]
+    fn crossings(&self, o: f32, i: i32) -> (f32, f32) {
+        (self.entry(o, i), self.exit(o, i))
+    }
+}
+
+/// A ray direction `(dx, dy)` (texels per depth code) as [`Columns::narrow`] uses it: made
+/// once per impostor and view, shared by all its rays.
+#[derive(Clone, Copy, Debug)]
+pub struct ColumnDir {
+    d: [f32; 2],
+    x: Axis,
+    y: Axis,
+    /// Depth codes per texel of travel along the faster axis (`None` for a ray that does not
+    /// move across the map).
+    back_off: Option<f32>,
+}
+
+impl ColumnDir {
+    pub fn new(dx: f32, dy: f32) -> ColumnDir {
+        let travel = dx.abs().max(dy.abs());
+        ColumnDir {
+            d: [dx, dy],
+            x: Axis::new(dx),
+            y: Axis::new(dy),
+            back_off: (travel > 0.0).then(|| 1.0 / travel),
+        }
+    }
 }

@@ -93,8 +93,9 @@ impl Stage for SelectStage {
         "select"
     }
 
+    /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {

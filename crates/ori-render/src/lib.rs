@@ -33,7 +33,8 @@
 //! # Invariants
 //!
 //! - **One rule.** The fragment shader is `ori_eval::march`'s rule step for step (ray from
-//!   the pixel centre, clip to the occupied volume, 16 linear + 7 binary steps with nearest
+//!   the pixel centre, clip to the occupied volume and narrow to the columns it crosses
+//!   ([`column_tops`], computed at load), 16 linear + 7 binary steps with nearest
 //!   texel lookups, wall discard with empty as an unbounded wall, fragment = texel `hi`), in
 //!   the same `f32` operations in the same order; for an orthographic camera the ray setup is
 //!   the evaluator's, computed in `f64` on the CPU and rounded once, so its rays are the
@@ -86,7 +87,7 @@ pub use camera::{Camera, Projection};
 pub use hierarchy::GpuHierarchy;
 pub use image::{Image, SOURCE_MESH, SOURCE_NONE};
 pub use mesh::GpuMesh;
-pub use ori::GpuOri;
+pub use ori::{COLUMN_CELL, GpuOri, column_tops};
 pub use ori_hierarchy::Visit;
 pub use renderer::{Renderer, RendererOptions};
 /// The bias of option 5 ([`Priority::BiasedDepth`]): `cos / OPTION5_BIAS_DIVISOR` of the

@@ -23,8 +23,11 @@ pub struct GpuOri {
     /// diameter.
     depth_range: Option<f64>,
     compressed: bool,
+    /// Cells per side of each map's column grid (the tops are in the bind group).
+    pub(crate) column_cells: u32,
     pub(crate) bind_group: wgpu::BindGroup,
     _textures: [wgpu::Texture; 3],
+    _columns: wgpu::Buffer,
 }
 
 /// The three maps of every impostor, as uploaded.
@@ -72,13 +75,28 @@ impl GpuOri {
                 })
             })
             .collect();
+        let (column_cells, tops) = column_tops(package, n)?;
+        let columns = crate::mesh::buffer(
+            device,
+            queue,
+            "ori column tops",
+            bytemuck::cast_slice(&tops),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let mut entries: Vec<wgpu::BindGroupEntry> = [0, 1, 2]
+            .map(|i| wgpu::BindGroupEntry {
+                binding: i,
+                resource: wgpu::BindingResource::TextureView(&views[i as usize]),
+            })
+            .into();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 3,
+            resource: columns.as_entire_binding(),
+        });
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("ori maps"),
             layout,
-            entries: &[0, 1, 2].map(|i| wgpu::BindGroupEntry {
-                binding: i,
-                resource: wgpu::BindingResource::TextureView(&views[i as usize]),
-            }),
+            entries: &entries,
         });
         let [depth, normal, albedo]: [wgpu::Texture; 3] = textures.try_into().expect("three maps");
         Ok(GpuOri {
@@ -88,8 +106,10 @@ impl GpuOri {
             priority: Priority::default(),
             depth_range: None,
             compressed,
+            column_cells,
             bind_group,
             _textures: [depth, normal, albedo],
+            _columns: columns,
         })
     }
 
@@ -263,6 +283,44 @@ fn upload(
         );
     }
     Ok(texture)
+}
+
+/// Edge in texels of a column-grid cell (`ori_eval::march::COLUMN_CELL`; the shader's
+/// `COLUMN_CELL`).
+pub const COLUMN_CELL: u32 = 8;
+
+/// Every map's column grid (`ori_eval::march::Columns`, which a test holds this equal to):
+/// cells per side, and per layer, row by row, the least depth code of each cell's non-empty
+/// texels (255 when none), one `u32` per cell. Computed from the depth the shader reads (a
+/// BC4 map decoded on the CPU; should the adapter's BC4 decoding differ by a code, the
+/// columns still start one code above each top).
+pub fn column_tops(package: &Package, n: u32) -> Result<(u32, Vec<u32>), RenderError> {
+    let cells = n.div_ceil(COLUMN_CELL) as usize;
+    let (n, t) = (n as usize, COLUMN_CELL as usize);
+    let mut tops = vec![255u32; cells * cells * package.textures.len()];
+    for (i, textures) in package.textures.iter().enumerate() {
+        let ktx = Ktx2::from_bytes(&textures.depth)
+            .map_err(|e| RenderError::Package(format!("impostor {i}: {e}")))?;
+        let level = ktx
+            .levels()
+            .first()
+            .ok_or_else(|| RenderError::Package(format!("impostor {i}: no depth level")))?;
+        let depth = decode(ktx.format(), level, n as u32)
+            .map_err(|e| RenderError::Package(format!("impostor {i}: {e}")))?;
+        if depth.len() != n * n {
+            return Err(RenderError::Package(format!(
+                "impostor {i}: the depth map is not {n} x {n}"
+            )));
+        }
+        let grid = &mut tops[i * cells * cells..(i + 1) * cells * cells];
+        for (y, row) in depth.chunks_exact(n).enumerate() {
+            for (x, &code) in row.iter().enumerate() {
+                let top = &mut grid[(y / t) * cells + x / t];
+                *top = (*top).min(u32::from(code));
+            }
+        }
+    }
+    Ok((cells as u32, tops))
 }
 
 /// A BC level decoded to 8-bit texels: R (BC4), RG (BC5) or RGBA (BC1, sRGB kept encoded).

@@ -57,9 +57,19 @@ impl Layouts {
             },
             count: None,
         };
+        let columns = wgpu::BindGroupLayoutEntry {
+            binding: 3,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
         let maps = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("ori maps"),
-            entries: &[map(0), map(1), map(2)],
+            entries: &[map(0), map(1), map(2), columns],
         });
         let material = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("material"),

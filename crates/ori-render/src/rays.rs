@@ -52,6 +52,8 @@ pub(crate) struct Slot {
     pub layer: u32,
     /// Impostor index, written to [`crate::Image::source`].
     pub index: u16,
+    /// Cells per side of the maps' column grids.
+    pub column_cells: u32,
 }
 
 /// The record of impostor `imp` (maps `resolution` texels square) for `camera` drawing a
@@ -163,6 +165,7 @@ pub(crate) fn record(
     rec.info[2] = march.linear_steps;
     rec.info[3] = march.binary_steps;
     rec.ids[0] = u32::from(slot.index);
+    rec.ids[1] = slot.column_cells;
     // Every float field (all but the last two `vec4<u32>`) must be finite.
     let floats = bytemuck::cast_slice::<_, f32>(std::slice::from_ref(&rec));
     floats[..floats.len() - 8]

@@ -419,6 +419,7 @@ fn plan<'a>(
             let slot = Slot {
                 layer: u32::from(i),
                 index: i,
+                column_cells: ori.column_cells,
             };
             if let Some(mut r) =
                 rays::record(imp, m.resolution, camera, width, height, slot, &ori.march)

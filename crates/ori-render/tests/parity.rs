@@ -285,3 +285,25 @@ fn biased_parity_on(name: &str, r: &ori_render::Renderer, source_percent: f64) {
          {source_percent} %)"
     );
 }
+
+/// The column grids the shader narrows its search with are the evaluator's.
+#[test]
+fn column_grids_are_the_evaluators() {
+    for built in [bunny(), duck()] {
+        let n = built.package.manifest.resolution;
+        let (cells, tops) = ori_render::column_tops(&built.package, n).expect("column tops");
+        let set = decoded_set(&built.package);
+        let per_map = (cells * cells) as usize;
+        for (i, map) in set.maps.iter().enumerate() {
+            let columns = ori_eval::march::Columns::new(&map.depth, n as usize);
+            assert_eq!(columns.cells(), cells);
+            let ours: Vec<u8> = tops[i * per_map..(i + 1) * per_map]
+                .iter()
+                .map(|&t| t as u8)
+                .collect();
+            assert_eq!(ours, columns.tops(), "map {i}");
+            assert!(columns.tops().iter().any(|&t| t != 255), "map {i} is empty");
+        }
+    }
+    assert_eq!(ori_render::COLUMN_CELL, ori_eval::march::COLUMN_CELL);
+}
