@@ -39,7 +39,7 @@
 //!   the same `f32` operations in the same order; for an orthographic camera the ray setup is
 //!   the evaluator's, computed in `f64` on the CPU and rounded once, so its rays are the
 //!   evaluator's bit for bit. Step counts and the wall threshold are per-impostor uniforms,
-//!   taken from the package's `params.select` (defaults 16, 7, 0.125). The parity test holds
+//!   taken from the package's `params.select` (defaults 16, 7, 0.25). The parity test holds
 //!   GPU and CPU together (coverage, colour, depth, which impostor drew each pixel).
 //! - **Priority, per ORI ([`GpuOri::set_priority`]), as the evaluator's
 //!   `ori_eval::Priority`.**
@@ -103,8 +103,8 @@ pub struct MarchParams {
     pub linear_steps: u32,
     /// Binary-search steps (default 7).
     pub binary_steps: u32,
-    /// Vertical-wall threshold, a fraction of the impostor's depth range (default 0.125:
-    /// `0.125 * 254` codes, computed in `f32`).
+    /// Vertical-wall threshold, a fraction of the impostor's depth range (default 0.25:
+    /// `0.25 * 254` codes, computed in `f32`).
     pub wall_threshold: f32,
 }
 
@@ -113,7 +113,7 @@ impl Default for MarchParams {
         MarchParams {
             linear_steps: 16,
             binary_steps: 7,
-            wall_threshold: 0.125,
+            wall_threshold: 0.25,
         }
     }
 }

@@ -240,7 +240,9 @@ fn pictures_of(
         s0: PICTURE_SIZE,
         linear_steps: select["linear_steps"].as_u64().unwrap_or(16) as u32,
         binary_steps: select["binary_steps"].as_u64().unwrap_or(7) as u32,
-        wall_threshold: select["wall_threshold"].as_f64().unwrap_or(0.125),
+        wall_threshold: select["wall_threshold"]
+            .as_f64()
+            .unwrap_or(EvalParams::default().wall_threshold),
         ..EvalParams::default()
     };
     let evaluator = Evaluator::new(&mesh, &set, &params).map_err(|e| e.to_string())?;

@@ -19,24 +19,22 @@
 //!
 //! # Quality on the Stanford scans
 //!
-//! With the defaults (n = 20, 256 x 256 maps, s0 = 256, 16 + 7 steps, wall threshold 0.125),
-//! best:6 gives on the armadillo 0.246 % average and 0.891 % maximum coverage error with 5.24
-//! impostors per view (PLT 112), on the bunny 0.608 % and 2.992 % with 4.78 (PLT 33): above
-//! the paper's 0.17 %, 0.37 % and 2.9. Two fixes got there from 0.398 % / 1.242 % / 5.97
-//! (armadillo): conservative edge texels in the bake (0.271 %) and spending the 16 linear
-//! steps inside each map's occupied volume only (0.246 %). What remains, measured with
-//! `eval-table`:
-//! - Most misses left with six impostors are one-pixel gaps along the view's silhouette:
-//!   rays that graze the surface dip under the heightfield for a few texels, between two of
-//!   the 16 linear samples. With 64 linear steps (before the two fixes) the armadillo got
-//!   0.175 % average, 0.693 % maximum and 3.83 impostors per view.
-//! - Discarding walls leaves the parts of the surface no impostor sees as holes, so the goal
-//!   rarely holds and best:6 mostly draws all six. Keeping walls (threshold 0.5) cuts the
-//!   coverage error to the paper's average (armadillo 0.167 %, bunny 0.156 %), but draws
-//!   1.3 % (bunny) to 3.6 % (armadillo) of the image outside the mesh and raises p_dif by half
-//!   (bunny) to 3.5 times (armadillo): pixels the paper did not count.
+//! With the defaults (n = 20, 256 x 256 maps, s0 = 256, 16 + 7 steps over the columns the
+//! ray crosses, wall threshold 0.25), best:6 gives on the armadillo 0.130 % average and
+//! 0.362 % maximum coverage error with 2.72 impostors per view (PLT 277): the paper's
+//! 0.17 %, 0.37 % and 2.9 are met. On the Stanford bunny 0.305 % and 1.447 % with 3.63
+//! (PLT 69): not met. How the armadillo got there from 0.398 % / 1.242 % / 5.97, measured
+//! with `eval-table`: conservative edge texels in the bake (0.271 %); the 16 linear steps
+//! spent inside each map's occupied volume (0.246 %), then inside the columns the ray
+//! crosses (0.150 %, 3.21 impostors per view: grazing rays no longer step over thin parts);
+//! the wall threshold raised from 0.125 to 0.25 (0.130 %, 0.362 %, 2.72; the trade-off is in
+//! `ori_eval`'s documentation). What remains:
 //! - The bunny's worst views look up through the holes in the scan's base at the inside of
-//!   the shell, which no impostor sees.
+//!   the shell, which an impostor sees only from nearly straight below. Keeping every wall
+//!   (threshold 0.5) fills them with the holes' rims (0.079 % / 0.189 % / 2.09 on the bunny)
+//!   but doubles the armadillo's colour error.
+//! - The armadillo's worst views (0.3 to 0.36 %) miss the insides of the thighs seen from
+//!   above, which none of the six closest impostors sees.
 
 mod choose;
 mod codec;

@@ -91,7 +91,7 @@ pub struct SelectParams {
     /// Binary-search steps of the runtime rule (default 7).
     pub binary_steps: u32,
     /// Vertical-wall threshold of the runtime rule, fraction of an impostor's depth range
-    /// (default 0.125).
+    /// (default 0.25).
     pub wall_threshold: f64,
 }
 

@@ -20,9 +20,8 @@ fn prepared(relative: &str) -> (Mesh, ReliefSet) {
     (mesh, set)
 }
 
-/// Selection with the defaults (best:6, goal 0.2%, s0 = 256, 16 + 7 steps), held to the
-/// figures measured when it was written (see the crate documentation for why they are above
-/// the paper's 0.17 / 0.37 % and 2.9 impostors), with a small margin.
+/// Selection with the defaults (best:6, goal 0.2%, s0 = 256, 16 + 7 steps, wall threshold
+/// 0.25) held to average and maximum coverage error and impostors per view.
 fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
     let (mesh, set) = prepared(relative);
     let started = Instant::now();
@@ -58,23 +57,26 @@ fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
 
 #[test]
 fn bunny_quality() {
-    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.63, 3.05, 4.90);
-    // The worst views look up through the holes in the scan's base: no impostor sees the
-    // inside through them (see the crate documentation).
+    // Measured 0.305 / 1.447 % and 3.63, PLT 69: above the paper's figures, because the
+    // worst views look up through the holes in the scan's base at the inside of the shell,
+    // which no impostor sees (see the crate documentation). Held with a small margin.
+    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.32, 1.5, 3.75);
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 31.0, "PLT {plt}");
+    assert!(plt.pixels() >= 65.0, "PLT {plt}");
 }
 
 #[test]
 fn armadillo_quality() {
+    // The paper's armadillo figures (0.17 / 0.37 %, 2.9 impostors per view, PLT 270 with
+    // 256 x 256 maps); measured 0.130 / 0.362 %, 2.72, PLT 277.
     let sel = holds(
         "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        0.26,
-        0.95,
-        5.35,
+        0.17,
+        0.37,
+        2.9,
     );
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 100.0, "PLT {plt}");
+    assert!(plt.pixels() >= 270.0, "PLT {plt}");
 }
 
 #[test]
