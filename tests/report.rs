@@ -126,3 +126,57 @@ fn xtask_report_remakes_the_report_from_a_release() {
     );
     assert!(html.contains("maps-albedo.png") && !html.contains("front-mesh.png"));
 }
+
+/// The picture folder of each asset in `out/report/report.json`, by asset name.
+fn picture_folders(p: &Project) -> Vec<(String, String)> {
+    let figures: serde_json::Value =
+        serde_json::from_slice(&fs::read(p.path("out/report/report.json")).unwrap()).unwrap();
+    figures["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|a| {
+            let first = a["pictures"][0][1].as_str().unwrap();
+            let folder = first.split('/').next().unwrap().to_string();
+            (a["name"].as_str().unwrap().to_string(), folder)
+        })
+        .collect()
+}
+
+#[test]
+fn a_rebuild_redraws_only_the_pictures_of_what_changed() {
+    let p = Project::new(&["box-vertex-colors", "bunny"]);
+    ok(&p.build_with_report(&[]));
+    let folders = picture_folders(&p);
+    assert_eq!(folders.len(), 2);
+    let modified = |folder: &str| {
+        fs::metadata(p.path(&format!("out/report/{folder}/front-ori.png")))
+            .unwrap()
+            .modified()
+            .unwrap()
+    };
+    let before: Vec<_> = folders.iter().map(|(_, f)| modified(f)).collect();
+    let stamp =
+        |folder: &str| fs::read(p.path(&format!("out/report/{folder}/pictures.json"))).unwrap();
+    let stamps: Vec<_> = folders.iter().map(|(_, f)| stamp(f)).collect();
+
+    // Move one vertex of the bunny.
+    let model = p.path("assets/bunny/bunny_npm_lowres.obj");
+    let text = fs::read_to_string(&model).unwrap();
+    fs::write(
+        &model,
+        text.replacen("\nv ", "\nv 0.001 0.002 0.003 # was: ", 1),
+    )
+    .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(20));
+    ok(&p.build_with_report(&[]));
+    assert_eq!(picture_folders(&p), folders);
+    for (k, (name, folder)) in folders.iter().enumerate() {
+        let redrawn = modified(folder) != before[k];
+        let edited = name.starts_with("bunny/");
+        assert_eq!(redrawn, edited, "{name}: redrawn {redrawn}");
+        assert_eq!(stamp(folder) != stamps[k], edited, "{name}: stamp");
+    }
+    let html = fs::read_to_string(p.path("out/report/index.html")).unwrap();
+    assert!(html.contains("front-ori.png") && !html.contains("changed since"));
+}

@@ -10,6 +10,9 @@
 //! histogram is inline SVG, the only script sorts the table and checks that every picture
 //! loaded); nothing is fetched from a network; an asset whose source is missing or changed
 //! since its package was built gets its figures without the reference pictures, and says so.
+//! An asset's pictures are drawn again only when its package, its source model or the drawing
+//! code ([`PICTURES_VERSION`]) changed: a stamp of the three beside them (`pictures.json`)
+//! says which pictures a folder holds, so a rebuild after one edit redraws one asset.
 
 mod html;
 mod pictures;
@@ -19,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use ori_eval::{EvalParams, Evaluator};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 pub use pictures::{Picture, count_colour, error_colour};
@@ -36,6 +39,44 @@ const VIEWS: [(&str, [f64; 3]); 4] = [
 
 /// Edge of the comparison pictures (whatever s0 the selection used: they are for people).
 const PICTURE_SIZE: u32 = 256;
+
+/// Version of every picture's drawing, the evaluator's rendering rule included: bump it when
+/// either changes, so that the pictures kept from an older report are drawn again.
+pub const PICTURES_VERSION: u32 = 2;
+
+/// What [`pictures_of`] adds to an asset's summary, kept beside its pictures with the stamp
+/// of what they were drawn from.
+#[derive(Debug, Serialize, Deserialize)]
+struct Drawn {
+    stamp: String,
+    impostors: Option<usize>,
+    pictures: Vec<(String, String)>,
+    notes: Vec<String>,
+    p_dif: Option<f64>,
+}
+
+/// The stamp of an asset's pictures: the drawing version, the package's blake3 (from
+/// `release.json`) and the source model's current content. `None` when the source cannot be
+/// read (the pictures say why).
+fn stamp(package_blake3: &str, source: &Path) -> Option<String> {
+    let source = std::fs::read(source).ok()?;
+    let mut h = blake3::Hasher::new();
+    h.update(&PICTURES_VERSION.to_le_bytes());
+    h.update(package_blake3.as_bytes());
+    h.update(blake3::hash(&source).as_bytes());
+    Some(h.finalize().to_hex().to_string())
+}
+
+/// The pictures already in `folder` when they were drawn from `stamp` and are all there.
+fn kept(folder: &Path, report_dir: &Path, stamp: &str) -> Option<Drawn> {
+    let bytes = std::fs::read(folder.join("pictures.json")).ok()?;
+    let drawn: Drawn = serde_json::from_slice(&bytes).ok()?;
+    let complete = drawn
+        .pictures
+        .iter()
+        .all(|(_, file)| report_dir.join(file).is_file());
+    (drawn.stamp == stamp && complete).then_some(drawn)
+}
 
 /// One asset's row of the summary and its pictures.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -153,8 +194,35 @@ fn asset_summary(
     s.package_bytes = entry["bytes"].as_u64();
     s.texture_bytes = entry["texture_bytes"].as_u64();
     let folder = format!("a{index:03}");
-    if let Err(e) = pictures_of(&mut s, out_dir, assets_root, &dir.join(&folder), &folder) {
-        s.notes.push(e);
+    let stamp = entry["blake3"]
+        .as_str()
+        .and_then(|b| stamp(b, &assets_root.join(&name)));
+    if let Some(d) = stamp
+        .as_deref()
+        .and_then(|st| kept(&dir.join(&folder), dir, st))
+    {
+        (s.impostors, s.pictures, s.p_dif) = (d.impostors, d.pictures, d.p_dif);
+        s.notes.extend(d.notes);
+        return s;
+    }
+    match pictures_of(&mut s, out_dir, assets_root, &dir.join(&folder), &folder) {
+        // Only a complete set is kept: a failure is tried again next time.
+        Ok(()) => {
+            if let Some(stamp) = stamp {
+                let drawn = Drawn {
+                    stamp,
+                    impostors: s.impostors,
+                    pictures: s.pictures.clone(),
+                    notes: s.notes.clone(),
+                    p_dif: s.p_dif,
+                };
+                let json = serde_json::to_vec_pretty(&drawn).expect("serialises");
+                if let Err(e) = write_file(&dir.join(&folder).join("pictures.json"), &json) {
+                    s.notes.push(e);
+                }
+            }
+        }
+        Err(e) => s.notes.push(e),
     }
     s
 }
