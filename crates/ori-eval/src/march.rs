@@ -46,6 +46,11 @@
 //! 7. **Fragment.** Otherwise the fragment is texel `hi` (its normal and albedo), at relief
 //!    depth `hi`.
 //!
+//! Changing any step of this rule changes measured results and pictures: bump the select
+//! stage's version (`ori-pipeline`'s `SelectStage`) so cached selections are redone, and
+//! `ori_report::PICTURES_VERSION` so report pictures are redrawn; keep `shaders/ori.wgsl` in
+//! step (the parity test in `ori-render` holds them together).
+//!
 //! Why empty counts as unbounded rather than as code 255 (just past the far plane): with 255,
 //! silhouette texels in the deepest `threshold` of the range keep their extruded "shadow
 //! volume", which on the Stanford scans more than doubles the pixels the ORI adds outside the
@@ -767,10 +772,11 @@ impl Columns {
         &self.tops
     }
 
-    /// Rule 2's narrowing: the part of the ray `(x, y) = (ox, oy) + z (dx, dy)`, `z` in
-    /// `span` (whose start lies in the map), that can go below the surface, or `None`. In the
-    /// grid cell `(i, j)` the ray runs over `[lo, hi]`, the depths where it enters and leaves
-    /// the cell ([`Columns::piece`]), and is in the column from `top - 1` down. The result runs
+    /// Rule 2's narrowing: the part of the ray `(x, y) = (ox, oy) + z (dx, dy)` (`dir`), `z`
+    /// in `span` (whose start lies in the map), that can go below the surface, or `None`. In
+    /// grid cell `(i, j)` the ray runs over `[lo, hi]`, the depths where it crosses the cell's
+    /// entry and exit boundaries (each computed from the boundary itself, so neighbouring
+    /// cells share the value), and is in the column from `top - 1` down. The result runs
     /// from the first column entry, moved back by one texel of travel (so that a ray entering
     /// a column through its side starts over the neighbouring texel, which it is above, and
     /// the step onto the relief is seen as the wall it is), to the last column exit. The
