@@ -48,16 +48,14 @@ fn missed(reference: &Image, image: &Image) -> usize {
         .count()
 }
 
-const DIRECTIONS: [[f64; 3]; 8] = [
-    [1.0, 0.0, 0.0],
-    [-1.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0],
-    [0.0, -1.0, 0.0],
-    [0.0, 0.0, 1.0],
-    [0.0, 0.0, -1.0],
-    [0.577, 0.577, 0.577],
-    [-0.4, 0.3, -0.866],
-];
+/// The six axis directions and two oblique ones.
+fn directions() -> Vec<[f64; 3]> {
+    let oblique = [[0.577, 0.577, 0.577], [-0.4, 0.3, -0.866]];
+    ori_views::axis_directions()
+        .into_iter()
+        .chain(oblique)
+        .collect()
+}
 
 #[test]
 fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
@@ -81,7 +79,8 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
     let (center, radius) = (root.bounding_sphere.center, root.bounding_sphere.radius);
     let children: Vec<Draw<'_>> = (1..h.nodes.len()).map(|i| Draw::Ori(gpu.node(i))).collect();
     let (mut parent_missed, mut children_missed, mut covered) = (0, 0, 0);
-    for dir in DIRECTIONS {
+    let directions = directions();
+    for &dir in &directions {
         let camera = Camera::ortho_framing(center, radius, dir);
         let reference = r.render_mesh(&gpu_mesh, &camera, size, size).unwrap();
         let parent = r
@@ -98,7 +97,7 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
         "{} nodes; over {} views at {size} px ({covered} mesh pixels): parent misses \
          {parent_missed}, children {children_missed}",
         h.nodes.len(),
-        DIRECTIONS.len()
+        directions.len()
     );
     assert!(
         children_missed <= parent_missed,

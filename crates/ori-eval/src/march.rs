@@ -827,8 +827,8 @@ impl Columns {
             .flatten()
     }
 
-    /// [`Columns::narrow`] for four rays with the same direction, the front walk in lockstep
-    /// (the same operations lane by lane); `None` for the lanes not `open`.
+    /// [`Columns::narrow`] for four rays with the same direction, both walks in lockstep (the
+    /// same operations lane by lane); `None` for the lanes not `open`.
     pub(crate) fn narrow4(
         &self,
         (ox, oy): (F4, F4),
@@ -847,22 +847,12 @@ impl Columns {
             cells(ox.add(za.mul(F4::splat(dx)))),
             cells(oy.add(za.mul(F4::splat(dy)))),
         );
-        // A crossing per lane: (b * CELL - o) * inv, as `Axis::at`; FAR / -FAR off the axis.
-        let at = |axis: &Axis, o: F4, b: F4, off: f32| {
-            if axis.step == 0 {
-                F4::splat(off)
-            } else {
-                b.mul(F4::splat(CELL)).sub(o).mul(F4::splat(axis.inv))
-            }
-        };
-        let entry =
-            |axis: &Axis, o: F4, i: F4| at(axis, o, i.add(F4::splat(axis.entry as f32)), -FAR);
-        let exit = |axis: &Axis, o: F4, i: F4| at(axis, o, i.add(F4::splat(axis.exit as f32)), FAR);
-        let (mut in_x, mut out_x) = (entry(ax, ox, i), exit(ax, ox, i));
-        let (mut in_y, mut out_y) = (entry(ay, oy, j), exit(ay, oy, j));
+        let (mut in_x, mut out_x) = (ax.entry4(ox, i), ax.exit4(ox, i));
+        let (mut in_y, mut out_y) = (ay.entry4(oy, j), ay.exit4(oy, j));
         let (sx, sy) = (F4::splat(ax.step as f32), F4::splat(ay.step as f32));
         let (zero, kf) = (F4::splat(0.0), F4::splat(k as f32));
         let (one, empty) = (F4::splat(1.0), F4::splat(EMPTY));
+        // From the front: the first cell whose column the ray enters.
         let mut first = F4::splat(FAR);
         let mut active = M4::from_array(open);
         for _ in 0..2 * k + 2 {
@@ -881,11 +871,11 @@ impl Columns {
             j = F4::select(step_x, j, next_j);
             (in_x, out_x) = (
                 F4::select(step_x, out_x, in_x),
-                F4::select(step_x, exit(ax, ox, next_i), out_x),
+                F4::select(step_x, ax.exit4(ox, next_i), out_x),
             );
             (in_y, out_y) = (
                 F4::select(step_x, in_y, out_y),
-                F4::select(step_x, out_y, exit(ay, oy, next_j)),
+                F4::select(step_x, out_y, ay.exit4(oy, next_j)),
             );
             let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
             active = active.and(inside);
@@ -895,8 +885,8 @@ impl Columns {
             cells(ox.add(zb.mul(F4::splat(dx)))),
             cells(oy.add(zb.mul(F4::splat(dy)))),
         );
-        let (mut in_x, mut out_x) = (entry(ax, ox, i), exit(ax, ox, i));
-        let (mut in_y, mut out_y) = (entry(ay, oy, j), exit(ay, oy, j));
+        let (mut in_x, mut out_x) = (ax.entry4(ox, i), ax.exit4(ox, i));
+        let (mut in_y, mut out_y) = (ay.entry4(oy, j), ay.exit4(oy, j));
         let mut last = F4::splat(-FAR);
         let mut active = M4::from_array(open).and(first.lt(F4::splat(FAR)));
         for _ in 0..2 * k + 2 {
@@ -913,11 +903,11 @@ impl Columns {
             i = F4::select(step_x, next_i, i);
             j = F4::select(step_x, j, next_j);
             (in_x, out_x) = (
-                F4::select(step_x, entry(ax, ox, next_i), in_x),
+                F4::select(step_x, ax.entry4(ox, next_i), in_x),
                 F4::select(step_x, in_x, out_x),
             );
             (in_y, out_y) = (
-                F4::select(step_x, in_y, entry(ay, oy, next_j)),
+                F4::select(step_x, in_y, ay.entry4(oy, next_j)),
                 F4::select(step_x, out_y, in_y),
             );
             let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
@@ -1059,6 +1049,27 @@ impl Axis {
     #[inline]
     fn crossings(&self, o: f32, i: i32) -> (f32, f32) {
         (self.entry(o, i), self.exit(o, i))
+    }
+
+    /// [`Axis::entry`] and [`Axis::exit`] on four lanes, the same operations lane by lane.
+    #[inline(always)]
+    fn entry4(&self, o: F4, i: F4) -> F4 {
+        self.at4(o, i.add(F4::splat(self.entry as f32)), -FAR)
+    }
+
+    #[inline(always)]
+    fn exit4(&self, o: F4, i: F4) -> F4 {
+        self.at4(o, i.add(F4::splat(self.exit as f32)), FAR)
+    }
+
+    /// [`Axis::at`] on four lanes; `off` on an axis the ray does not move on.
+    #[inline(always)]
+    fn at4(&self, o: F4, b: F4, off: f32) -> F4 {
+        if self.step == 0 {
+            F4::splat(off)
+        } else {
+            b.mul(F4::splat(CELL)).sub(o).mul(F4::splat(self.inv))
+        }
     }
 }
 

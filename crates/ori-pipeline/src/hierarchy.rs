@@ -11,7 +11,6 @@
 
 use ori_graph::{JobContext, Stage, StageError};
 use ori_hierarchy::Cell;
-use ori_mesh::Mesh;
 use ori_package::{HierarchyManifest, HierarchyNode, Source, SplitKind};
 use serde::{Deserialize, Serialize};
 
@@ -95,8 +94,7 @@ impl Stage for ClipStage {
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
         let p: ClipParams = params(ctx)?;
-        let mesh = Mesh::decode(&ctx.input(MESH)?)
-            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let mesh = crate::stages::mesh(ctx)?;
         let bytes =
             ori_mesh::clip_to_box(&mesh, p.min, p.max).map_or_else(Vec::new, |m| m.encode());
         ctx.output(MESH, bytes);

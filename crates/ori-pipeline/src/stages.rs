@@ -17,7 +17,7 @@ pub(crate) fn params<T: serde::de::DeserializeOwned>(
         .map_err(|e| StageError::new(format!("bad parameters: {e}")))
 }
 
-fn mesh(ctx: &mut JobContext<'_>) -> Result<Mesh, StageError> {
+pub(crate) fn mesh(ctx: &mut JobContext<'_>) -> Result<Mesh, StageError> {
     let bytes = ctx.input(crate::ingest::MESH)?;
     Mesh::decode(&bytes).map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))
 }
