@@ -6,7 +6,8 @@
 // materials discard below their cutoff. Shading is the evaluator's comparison shading
 // (`ori_eval::Shading`): albedo x (0.3 + 0.7 max(0, n . l)), the light fixed to the view.
 // The shading normal is turned to the side of the surface the viewer sees, as the baker
-// turns it (both windings are drawn).
+// turns it (double-sided materials draw both windings; single-sided ones are drawn by a
+// pipeline that culls back faces).
 
 struct Globals {
     world_to_clip: mat4x4<f32>,

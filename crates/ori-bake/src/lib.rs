@@ -4,7 +4,9 @@
 //! (the guide's "Relief texel"): depth (8 bits, 0 at the near plane, 254 at the far side of
 //! the object, 255 = empty: the ray passes), the shading normal in the impostor frame (x and
 //! y stored, z >= 0 rebuilt), and the albedo (base-colour factor x texture x vertex colour,
-//! sRGB). Alpha-tested (MASK) materials cut holes.
+//! sRGB). Alpha-tested (MASK) materials cut holes, and single-sided materials are seen from
+//! the front only (`Mesh::single_sided`: back faces culled, as an engine draws the mesh), so
+//! that a hole in an open scan stays a hole instead of showing the scan's inside.
 //!
 //! Choices:
 //! - Depth comes from the texel centre, so every texel whose centre hits lies on the surface
@@ -174,11 +176,16 @@ pub fn bake(
         .iter()
         .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
         .collect();
+    let single_sided = mesh.single_sided();
+    let faces = Faces {
+        masked: &masked,
+        single_sided: &single_sided,
+    };
     let maps = directions
         .par_iter()
         .enumerate()
         .map(|(index, &direction)| {
-            bake_one(mesh, &shader, &masked, direction, params).map_err(|reason| BakeError::Frame {
+            bake_one(mesh, &shader, &faces, direction, params).map_err(|reason| BakeError::Frame {
                 index,
                 direction,
                 reason,
@@ -188,10 +195,16 @@ pub fn bake(
     Ok(ReliefSet { maps })
 }
 
+/// Per triangle: alpha-tested, and culled from behind (as the reference mesh is drawn).
+struct Faces<'a> {
+    masked: &'a [bool],
+    single_sided: &'a [bool],
+}
+
 fn bake_one(
     mesh: &Mesh,
     shader: &sample::Shader<'_>,
-    masked: &[bool],
+    faces: &Faces<'_>,
     direction: [f64; 3],
     params: &BakeParams,
 ) -> Result<ReliefMap, String> {
@@ -200,23 +213,31 @@ fn bake_one(
         .map_err(|e| e.0)?;
     let keep = |tri: u32, bary: [f32; 3]| shader.alpha_keeps(tri, bary);
     let alpha = AlphaTest {
-        masked,
+        masked: faces.masked,
         keep: &keep,
     };
-    let alpha = masked.iter().any(|&m| m).then_some(&alpha);
+    let alpha = faces.masked.iter().any(|&m| m).then_some(&alpha);
+    let single_sided = Some(faces.single_sided);
 
     let n = params.resolution as usize;
     let s = params.supersample as usize;
     let fine_view = view.with_size(params.resolution * params.supersample);
     // Depth and coverage at texel centres, colour and normal from the sub-samples: one pass.
     let mut rasters = if s == 1 {
-        vec![rasterize(&view, &mesh.positions, &mesh.triangles, alpha)]
+        vec![rasterize(
+            &view,
+            &mesh.positions,
+            &mesh.triangles,
+            alpha,
+            single_sided,
+        )]
     } else {
         rasterize_scales(
             &view,
             &mesh.positions,
             &mesh.triangles,
             alpha,
+            single_sided,
             &[1, params.supersample],
         )
     };

@@ -14,9 +14,11 @@ fn model(rel: &str) -> Mesh {
 }
 
 /// The first surface along the ray through a texel centre, found independently of the
-/// rasterizer: triangles binned by their pixel bounding box, exact barycentric tests.
+/// rasterizer: triangles binned by their pixel bounding box, exact barycentric tests, and
+/// single-sided triangles culled by the sign of their world normal along the map direction.
 struct RayCaster<'m> {
     mesh: &'m Mesh,
+    single_sided: Vec<bool>,
     map: &'m ReliefMap,
     cells: Vec<Vec<u32>>,
     cell: usize,
@@ -43,6 +45,7 @@ impl<'m> RayCaster<'m> {
         }
         RayCaster {
             mesh,
+            single_sided: mesh.single_sided(),
             map,
             cells,
             cell: CELL,
@@ -56,6 +59,19 @@ impl<'m> RayCaster<'m> {
             + (x as usize / self.cell).min(self.grid - 1);
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         for &t in &self.cells[c] {
+            let world = self.mesh.triangles[t as usize]
+                .map(|i| self.mesh.positions[i as usize].map(f64::from));
+            let (e1, e2) = (
+                std::array::from_fn::<f64, 3, _>(|k| world[1][k] - world[0][k]),
+                std::array::from_fn::<f64, 3, _>(|k| world[2][k] - world[0][k]),
+            );
+            let d = self.map.view.frame.d;
+            let facing = (e1[1] * e2[2] - e1[2] * e2[1]) * d[0]
+                + (e1[2] * e2[0] - e1[0] * e2[2]) * d[1]
+                + (e1[0] * e2[1] - e1[1] * e2[0]) * d[2];
+            if self.single_sided[t as usize] && facing <= 0.0 {
+                continue;
+            }
             let p = self.mesh.triangles[t as usize].map(|i| {
                 self.map
                     .view

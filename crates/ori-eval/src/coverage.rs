@@ -1,11 +1,11 @@
 //! Mesh coverage without the rest of a raster: the same pixels `ori_raster::rasterize` draws
-//! (same projection, fill rule and alpha test, operation for operation; only conservative
+//! (same projection, fill rule, alpha test and culling, operation for operation; only conservative
 //! pre-tests added), computed as a union of triangles, so no depth test, heights or
 //! barycentrics are needed and a triangle whose pixels are all covered already is skipped.
 //! A test holds the two equal.
 
 use ori_mesh::Mesh;
-use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, fmax, fmin};
+use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, faces_away, fmax, fmin};
 
 use crate::Mask;
 use crate::reference::AlphaCut;
@@ -19,6 +19,8 @@ pub(crate) struct CoverageMesh {
     triangles: Vec<[u32; 3]>,
     /// Index of each triangle in the original mesh (for the alpha test).
     original: Vec<u32>,
+    /// Whether each triangle is culled from behind (`Mesh::single_sided`).
+    single_sided: Vec<bool>,
 }
 
 impl CoverageMesh {
@@ -72,9 +74,11 @@ impl CoverageMesh {
                 remap[v as usize]
             }));
         }
+        let single_sided = mesh.single_sided();
         CoverageMesh {
             positions,
             triangles,
+            single_sided: order.iter().map(|o| single_sided[o.1 as usize]).collect(),
             original: order.iter().map(|o| o.1).collect(),
         }
     }
@@ -175,9 +179,10 @@ fn coverage_with(
         if !(span(0) && span(1)) {
             continue;
         }
+        let culled = mesh.single_sided[t];
         let t = mesh.original[t] as usize;
         let masked = alpha.filter(|al| al.masked[t]);
-        draw(&mut mask, t, [a, b, c], masked);
+        draw(&mut mask, t, [a, b, c], masked, culled);
     }
     mask
 }
@@ -200,7 +205,13 @@ fn edge(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
 }
 
 /// `ori_raster`'s exact inside test of one triangle, setting the covered pixels.
-fn draw(mask: &mut Mask, t: usize, [a, b, c]: [[f64; 2]; 3], alpha: Option<&AlphaCut<'_>>) {
+fn draw(
+    mask: &mut Mask,
+    t: usize,
+    [a, b, c]: [[f64; 2]; 3],
+    alpha: Option<&AlphaCut<'_>>,
+    single_sided: bool,
+) {
     let n = mask.size() as usize;
     let max = n as f64;
     let min_x = a[0].min(b[0]).min(c[0]);
@@ -222,7 +233,7 @@ fn draw(mask: &mut Mask, t: usize, [a, b, c]: [[f64; 2]; 3], alpha: Option<&Alph
         return;
     }
     let area = edge(a, b, c);
-    if area == 0.0 || !area.is_finite() {
+    if area == 0.0 || !area.is_finite() || (single_sided && faces_away(area)) {
         return;
     }
     let (p1, p2, swapped) = if area > 0.0 {

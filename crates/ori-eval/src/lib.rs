@@ -20,8 +20,15 @@
 //! # Choices the guide leaves open
 //!
 //! - **Pixels.** Pixel `(x, y)` is the ray through its centre `(x + 0.5, y + 0.5)`. The mesh
-//!   covers it when the centre is inside a triangle (`ori_raster`'s fill rule, both windings,
-//!   the bake's alpha test), so holes in a scan show what is behind them.
+//!   covers it when the centre is inside a triangle (`ori_raster`'s fill rule, the bake's
+//!   alpha test) that is drawn from this side.
+//! - **The mesh as an engine draws it.** Triangles of single-sided materials are culled
+//!   where they face away from the viewer (`ori_mesh::Mesh::single_sided`: glTF's
+//!   `doubleSided: false`, and every OBJ or PLY, which carry no flag), both here and in the
+//!   bake. On a closed, consistently wound model this changes nothing (the nearest surface
+//!   always faces the viewer). An open scan shows what a game shows: through a hole the
+//!   inside of the shell is culled and the viewer sees past it. Double-sided materials draw
+//!   both windings.
 //! - **Facing.** An impostor faces the viewer when `d . w > 0`; only facing impostors draw.
 //!   Its quad is extended for skewed views: every pixel whose ray meets the relief volume is
 //!   traced; the search covers the part of the ray inside the volume, narrowed to the
@@ -39,17 +46,18 @@
 //!
 //!   | threshold | armadillo                               | Stanford bunny                          |
 //!   |-----------|-----------------------------------------|-----------------------------------------|
-//!   | 0.0625    | 0.160 / 0.650 %, 3.42, 0.498 %, 17.3     | 0.652 / 3.627 %, 4.22, 0.385 %, 17.8     |
-//!   | 0.125     | 0.150 / 0.635 %, 3.21, 0.570 %, 18.8     | 0.526 / 2.911 %, 4.05, 0.416 %, 17.2     |
-//!   | 0.1875    | 0.139 / 0.597 %, 2.98, 0.702 %, 21.6     | 0.395 / 2.098 %, 3.86, 0.511 %, 17.4     |
-//!   | **0.25**  | 0.130 / 0.362 %, 2.72, 0.964 %, 26.6     | 0.305 / 1.447 %, 3.63, 0.598 %, 17.8     |
-//!   | 0.5       | 0.112 / 0.282 %, 2.14, 2.405 %, 52.6     | 0.079 / 0.189 %, 2.09, 1.069 %, 22.3     |
+//!   | 0.0625    | 0.160 / 0.650 %, 3.42, 0.498 %, 17.3     | 0.191 / 1.926 %, 3.11, 0.493 %, 12.2     |
+//!   | 0.125     | 0.150 / 0.635 %, 3.21, 0.570 %, 18.8     | 0.185 / 1.854 %, 2.91, 0.527 %, 13.0     |
+//!   | 0.1875    | 0.139 / 0.597 %, 2.98, 0.702 %, 21.6     | 0.165 / 1.645 %, 2.77, 0.599 %, 14.0     |
+//!   | **0.25**  | 0.130 / 0.362 %, 2.72, 0.964 %, 26.6     | 0.151 / 1.573 %, 2.65, 0.681 %, 15.2     |
+//!   | 0.5       | 0.112 / 0.282 %, 2.14, 2.405 %, 52.6     | 0.119 / 1.393 %, 2.27, 1.233 %, 22.7     |
 //!
 //!   Higher thresholds buy coverage by keeping relief "shadow volumes": the pixels they
 //!   cover are drawn with the wrong surface, and some fall outside the mesh. 0.25 is the
 //!   smallest value at which the armadillo reaches the paper's figures (0.17 / 0.37 %, 2.9
-//!   impostors per view); its cost there is +0.39 points of inverse coverage and p_dif
-//!   +41 % against 0.125 (the bunny's p_dif is unchanged). 0.5 doubles both again. Real
+//!   impostors per view), and the bunny its average and impostors per view; the cost on the
+//!   armadillo is +0.39 points of inverse coverage and p_dif +41 % against 0.125. 0.5
+//!   doubles both again. Real
 //!   surfaces steeper than about 89 degrees from the impostor direction (steps over 63
 //!   codes between neighbouring texels) are still discarded as walls.
 //! - **Priority.** Option 3 (default): the list order, closest direction first. Option 5:
@@ -198,6 +206,8 @@ pub struct Evaluator<'a> {
     /// Per map, its occupied volume and column grid (rule 2).
     occupancy: Vec<march::Occupancy>,
     coverage_mesh: coverage::CoverageMesh,
+    /// [`Mesh::single_sided`], for the reference raster.
+    single_sided: Vec<bool>,
 }
 
 impl<'a> Evaluator<'a> {
@@ -235,6 +245,7 @@ impl<'a> Evaluator<'a> {
                 .collect(),
             occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
             coverage_mesh: coverage::CoverageMesh::new(mesh),
+            single_sided: mesh.single_sided(),
         })
     }
 
@@ -273,21 +284,14 @@ impl<'a> Evaluator<'a> {
         order
     }
 
-    /// Pixels the mesh covers.
+    /// Pixels the mesh covers (single-sided triangles only from the front).
     pub fn mesh_coverage(&self, view: &OrthoView) -> Mask {
         coverage::coverage(view, &self.coverage_mesh, self.alpha.as_ref())
     }
 
-    /// Pixels whose nearest surface faces the viewer or is double-sided (a subset of
-    /// [`Evaluator::mesh_coverage`]): the reference of a part cut out of a closed model, whose
-    /// inside, seen through the cut, the neighbouring parts hide.
-    pub fn front_coverage(&self, view: &OrthoView) -> Mask {
-        reference::front_coverage(self.mesh, self.alpha.as_ref(), view)
-    }
-
     /// The full reference render of the mesh.
     pub fn render_mesh(&self, view: &OrthoView) -> Result<Render, EvalError> {
-        reference::render(self.mesh, self.alpha.as_ref(), view)
+        reference::render(self.mesh, self.alpha.as_ref(), &self.single_sided, view)
     }
 
     /// The rays of `view` in impostor `impostor`'s texture space (`None` when it does not

@@ -6,7 +6,7 @@ use ori_bake::{BakeParams, EMPTY_DEPTH, ReliefMap};
 use ori_mesh::{AlphaMode, Mesh, Wrap};
 use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
 
-use crate::{EvalError, Mask, NO_SOURCE, Render};
+use crate::{EvalError, NO_SOURCE, Render};
 
 /// The evaluation view of `mesh` along `w` (unit, towards the viewer): orthographic, `s0`
 /// pixels square, framed so that the square bounding box of the object's projection has edge
@@ -111,35 +111,26 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
     r as usize
 }
 
-fn raster(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &OrthoView) -> ori_raster::Raster {
+/// The mesh through `view`, with the bake's alpha test and back-face culling
+/// (`single_sided`: [`Mesh::single_sided`]).
+fn raster(
+    mesh: &Mesh,
+    alpha: Option<&AlphaCut<'_>>,
+    single_sided: &[bool],
+    view: &OrthoView,
+) -> ori_raster::Raster {
     let keep = |tri: u32, bary: [f32; 3]| alpha.is_some_and(|a| a.keeps(tri, bary));
     let test = alpha.map(|a| AlphaTest {
         masked: &a.masked,
         keep: &keep,
     });
-    rasterize(view, &mesh.positions, &mesh.triangles, test.as_ref())
-}
-
-/// Pixels whose nearest surface faces the viewer (its winding's normal has a positive
-/// component along the view direction) or is double-sided: what stays visible of a cut-out
-/// part of a closed model once the neighbouring parts are drawn around it (through a cut one
-/// sees the model's inside, back faces, which the neighbours hide).
-pub(crate) fn front_coverage(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &OrthoView) -> Mask {
-    let r = raster(mesh, alpha, view);
-    let d = view.frame.d;
-    let mut mask = Mask::new(view.size);
-    for (i, &tri) in r.tri.iter().enumerate() {
-        if tri == EMPTY {
-            continue;
-        }
-        let t = tri as usize;
-        let material = &mesh.materials[mesh.triangle_materials[t] as usize];
-        let n = ori_mesh::face_normal(&mesh.positions, mesh.triangles[t]);
-        if material.double_sided || n[0] * d[0] + n[1] * d[1] + n[2] * d[2] > 0.0 {
-            mask.set(i);
-        }
-    }
-    mask
+    rasterize(
+        view,
+        &mesh.positions,
+        &mesh.triangles,
+        test.as_ref(),
+        Some(single_sided),
+    )
 }
 
 /// The full reference: coverage and exact depth from the rasterizer, albedo and normal from a
@@ -148,9 +139,10 @@ pub(crate) fn front_coverage(mesh: &Mesh, alpha: Option<&AlphaCut<'_>>, view: &O
 pub(crate) fn render(
     mesh: &Mesh,
     alpha: Option<&AlphaCut<'_>>,
+    single_sided: &[bool],
     view: &OrthoView,
 ) -> Result<Render, EvalError> {
-    let r = raster(mesh, alpha, view);
+    let r = raster(mesh, alpha, single_sided, view);
     let params = BakeParams {
         resolution: view.size,
         supersample: 2,

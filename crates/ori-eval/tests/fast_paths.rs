@@ -5,21 +5,36 @@ mod common;
 use ori_eval::{EvalParams, Evaluator, Mask};
 use ori_raster::{EMPTY, rasterize};
 
+/// The rasterizer's coverage of `mesh` through `view`, culled (as the evaluator) or not.
+fn raster_coverage(mesh: &ori_mesh::Mesh, view: &ori_raster::OrthoView, cull: bool) -> Mask {
+    let single_sided = mesh.single_sided();
+    let r = rasterize(
+        view,
+        &mesh.positions,
+        &mesh.triangles,
+        None,
+        cull.then_some(&single_sided[..]),
+    );
+    let mut full = Mask::new(view.size);
+    for (i, &t) in r.tri.iter().enumerate() {
+        if t != EMPTY {
+            full.set(i);
+        }
+    }
+    full
+}
+
 #[test]
 fn mesh_coverage_is_the_rasterizer_coverage() {
     let (mesh, set) = common::bunny();
     let ev = Evaluator::new(mesh, set, &EvalParams::default()).unwrap();
     for w in ori_views::evaluation_directions().iter().step_by(20) {
         let view = ev.view(*w).unwrap();
-        let fast = ev.mesh_coverage(&view);
-        let r = rasterize(&view, &mesh.positions, &mesh.triangles, None);
-        let mut full = Mask::new(view.size);
-        for (i, &t) in r.tri.iter().enumerate() {
-            if t != EMPTY {
-                full.set(i);
-            }
-        }
-        assert_eq!(fast, full, "direction {w:?}");
+        assert_eq!(
+            ev.mesh_coverage(&view),
+            raster_coverage(mesh, &view, true),
+            "direction {w:?}"
+        );
     }
 }
 
@@ -86,10 +101,10 @@ fn alpha_tested_coverage_is_the_baked_coverage() {
 }
 
 #[test]
-fn front_coverage_leaves_out_the_inside_seen_through_a_cut() {
+fn culling_leaves_out_the_inside_seen_through_a_cut() {
     // The bunny cut in half across x: from +x one looks into the cut and sees the inside of
-    // the far half's shell (back faces); from -x the outside. Front coverage is a subset of
-    // coverage, equal to it where no back face is nearest.
+    // the far half's shell (back faces, culled: the bunny is single-sided); from -x the
+    // outside. The fast path culls exactly as the rasterizer does.
     let (mesh, set) = common::bunny();
     let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
     for p in &mesh.positions {
@@ -103,9 +118,15 @@ fn front_coverage_leaves_out_the_inside_seen_through_a_cut() {
     let ev = Evaluator::new(&half, set, &EvalParams::default()).unwrap();
     let count = |w: [f64; 3]| {
         let view = ev.view(w).unwrap();
-        let (all, front) = (ev.mesh_coverage(&view), ev.front_coverage(&view));
-        assert_eq!(front.count_minus(&all), 0, "front coverage within coverage");
-        (all.count(), front.count())
+        let culled = ev.mesh_coverage(&view);
+        assert_eq!(culled, raster_coverage(&half, &view, true), "{w:?}");
+        let both_sides = raster_coverage(&half, &view, false);
+        assert_eq!(
+            culled.count_minus(&both_sides),
+            0,
+            "culling only removes pixels"
+        );
+        (both_sides.count(), culled.count())
     };
     let (all, front) = count([1.0, 0.0, 0.0]);
     assert!(

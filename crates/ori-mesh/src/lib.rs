@@ -70,6 +70,7 @@ pub struct Material {
     pub alpha_mode: AlphaMode,
     /// Alpha below this is a hole when `alpha_mode` is [`AlphaMode::Mask`] (glTF default 0.5).
     pub alpha_cutoff: f32,
+    /// Drawn from both sides; when false, back faces are culled (see [`Mesh::single_sided`]).
     pub double_sided: bool,
 }
 
@@ -220,6 +221,21 @@ impl Mesh {
             }
         }
         (lo, hi)
+    }
+
+    /// Per triangle, whether its material is single-sided: drawn only from the side its
+    /// winding faces (counter-clockwise seen from the front), as a real-time engine culls
+    /// back faces. glTF says so per material; OBJ and PLY carry no flag and are single-sided,
+    /// as engines import them.
+    pub fn single_sided(&self) -> Vec<bool> {
+        self.triangle_materials
+            .iter()
+            .map(|&m| {
+                self.materials
+                    .get(m as usize)
+                    .is_none_or(|mat| !mat.double_sided)
+            })
+            .collect()
     }
 
     /// Serialise to the canonical little-endian byte layout (see `codec.rs`).

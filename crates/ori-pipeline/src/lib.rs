@@ -180,15 +180,14 @@ impl Chain {
 }
 
 /// Add the chain of one ORI of `asset` (labelled `label` in progress and messages) over the
-/// mesh output `mesh` = (job, output name); `node`: a hierarchy node below the root, whose
-/// selection counts only what the neighbouring nodes leave visible.
+/// mesh output `mesh` = (job, output name): the asset's own mesh, or a hierarchy node's part
+/// of it. (A node's inside, seen through its cuts, is back faces, which are culled.)
 fn plan_chain(
     graph: &mut Graph,
     stages: &Stages,
     label: &str,
     planned: &PlannedAsset,
     mesh: (JobId, &str),
-    node: bool,
 ) -> Chain {
     let (asset, params) = (&planned.asset, &planned.params);
     let job = |stage: &Arc<dyn ori_graph::Stage>, params, inputs| JobSpec {
@@ -211,13 +210,9 @@ fn plan_chain(
             (stages::VIEWS.into(), output(views, stages::VIEWS)),
         ],
     ));
-    let mut select_json = select_params(params);
-    if node {
-        select_json["against"] = stages::FRONT_FACES.into();
-    }
     let select = graph.add(job(
         &stages.select,
-        select_json,
+        select_params(params),
         vec![
             mesh_input(),
             (stages::MAPS.into(), output(bake, stages::MAPS)),
@@ -326,7 +321,6 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
             &asset.name,
             planned,
             (ingest, ingest::MESH),
-            false,
         );
         let mut nodes = Vec::new();
         let mut measured = vec![(ingest, root.plt)];
@@ -337,14 +331,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
                 let label = node_label(&asset.name, i);
                 let cell = node.clip.as_ref().unwrap_or(&node.cell);
                 let clip = plan_clip(&mut graph, &stages, label.clone(), ingest, cell);
-                let chain = plan_chain(
-                    &mut graph,
-                    &stages,
-                    &label,
-                    planned,
-                    (clip, ingest::MESH),
-                    true,
-                );
+                let chain = plan_chain(&mut graph, &stages, &label, planned, (clip, ingest::MESH));
                 nodes.push(clip);
                 nodes.extend(chain.jobs());
                 measured.push((clip, chain.plt));

@@ -54,7 +54,8 @@ impl Stage for BakeStage {
 
     fn version(&self) -> u32 {
         // 2: conservative edge texels (a texel whose centre misses but a sub-sample hits).
-        2
+        // 3: single-sided materials culled from behind.
+        3
     }
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
@@ -81,10 +82,6 @@ pub const PLT: &str = "plt";
 /// The `backend` parameter of a select job measured with the GPU renderer.
 pub const GPU_BACKEND: &str = "gpu";
 
-/// The `against` parameter of a hierarchy node's select job (not the root's): coverage error
-/// counts only pixels whose nearest surface faces the viewer (`ori_select::Reference`).
-pub const FRONT_FACES: &str = "front_faces";
-
 /// Chooses, for each of the 320 evaluation directions, the impostors to draw (`[select]`).
 pub struct SelectStage;
 
@@ -94,21 +91,19 @@ impl Stage for SelectStage {
     }
 
     /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
+    /// 3: single-sided materials are culled from behind in the reference.
     fn version(&self) -> u32 {
-        2
+        3
     }
 
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
         // `backend` and `device` (set by `--backend gpu`) are not selection parameters: they
-        // make GPU results their own cache entries. `against` marks a hierarchy node.
+        // make GPU results their own cache entries.
         let mut json = ctx.params().clone();
-        let front = json.get("against").and_then(|b| b.as_str()) == Some(FRONT_FACES);
-        // The GPU backend measures full coverage only: nodes are measured on the CPU.
-        let gpu = json.get("backend").and_then(|b| b.as_str()) == Some(GPU_BACKEND) && !front;
+        let gpu = json.get("backend").and_then(|b| b.as_str()) == Some(GPU_BACKEND);
         if let Some(map) = json.as_object_mut() {
             map.remove("backend");
             map.remove("device");
-            map.remove("against");
         }
         let params: ori_select::SelectParams = serde_json::from_value(json)
             .map_err(|e| StageError::new(format!("bad parameters: {e}")))?;
@@ -120,12 +115,7 @@ impl Stage for SelectStage {
                 .and_then(|r| crate::gpu_select::select(&mesh, &set, &params, r))
                 .map_err(|e| StageError::new(format!("{}: GPU selection: {e}", ctx.asset())))?
         } else {
-            let against = if front {
-                ori_select::Reference::FrontFaces
-            } else {
-                ori_select::Reference::Coverage
-            };
-            ori_select::select_against(&mesh, &set, &params, against)
+            ori_select::select(&mesh, &set, &params)
                 .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?
         };
         ctx.output(SELECTION, selection.encode());

@@ -204,14 +204,16 @@ pub struct AlphaTest<'a> {
     pub keep: &'a (dyn Fn(u32, [f32; 3]) -> bool + Sync),
 }
 
-/// Draw `triangles` seen through `view`.
+/// Draw `triangles` seen through `view`. Triangles marked in `single_sided` are culled where
+/// they face away from the viewer ([`faces_away`]); the others are drawn from both sides.
 pub fn rasterize(
     view: &OrthoView,
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
+    single_sided: Option<&[bool]>,
 ) -> Raster {
-    let mut out = rasterize_scales(view, positions, triangles, alpha, &[1]);
+    let mut out = rasterize_scales(view, positions, triangles, alpha, single_sided, &[1]);
     out.pop().expect("one scale, one raster")
 }
 
@@ -227,6 +229,7 @@ pub fn rasterize_scales(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
+    single_sided: Option<&[bool]>,
     scales: &[u32],
 ) -> Vec<Raster> {
     assert!(
@@ -277,7 +280,8 @@ pub fn rasterize_scales(
             let down = f64::from(finest / scale);
             let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] / down, p[1] / down, p[2]]);
             let masked = alpha.is_some_and(|al| al.masked.get(t).copied().unwrap_or(false));
-            draw(out, t, a, b, c, masked.then_some(alpha).flatten());
+            let culled = single_sided.is_some_and(|s| s.get(t).copied().unwrap_or(false));
+            draw(out, t, a, b, c, masked.then_some(alpha).flatten(), culled);
         }
     }
     outs
@@ -302,6 +306,7 @@ fn draw(
     b: [f64; 3],
     c: [f64; 3],
     alpha: Option<&AlphaTest<'_>>,
+    single_sided: bool,
 ) {
     let n = out.size as usize;
     let max = n as f64;
@@ -325,6 +330,9 @@ fn draw(
     let area = edge(a, b, c);
     if area == 0.0 || !area.is_finite() {
         return; // degenerate in this view
+    }
+    if single_sided && faces_away(area) {
+        return;
     }
     // Orient counter-clockwise on screen; remember how to map weights back.
     let (p1, p2, swapped) = if area > 0.0 {
@@ -408,6 +416,14 @@ pub fn ceil_nonneg(v: f64) -> usize {
     if (t as f64) < v { t + 1 } else { t }
 }
 
+/// Whether a triangle whose screen corners `a, b, c` (in winding order) have
+/// `edge(a, b, c) == area` shows its back to the viewer. The frame (u, v, d) is right-handed
+/// and the screen's y runs down (along -v), so a triangle whose normal `(b - a) x (c - a)`
+/// points towards the viewer (`. d > 0`) turns clockwise on the image: negative area.
+pub fn faces_away(area: f64) -> bool {
+    area > 0.0
+}
+
 /// Twice the signed area of (a, b, p) on screen (y down): positive when p is to the left of
 /// a -> b as seen on the image.
 fn edge(a: [f64; 3], b: [f64; 3], p: [f64; 3]) -> f64 {
@@ -452,7 +468,7 @@ mod tests {
     fn square_covers_every_pixel_once_with_no_cracks() {
         let (p, t) = quad();
         let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, 1.0]), &p, 16, 0).unwrap();
-        let r = rasterize(&view, &p, &t, None);
+        let r = rasterize(&view, &p, &t, None, None);
         assert_eq!(r.covered(), 256);
         // Both triangles drew something; the diagonal is split between them.
         assert!(r.tri.contains(&0) && r.tri.contains(&1));
@@ -472,7 +488,7 @@ mod tests {
         t.push([4, 5, 6]);
         t.push([0, 1, 2]); // duplicate of triangle 0
         let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, 1.0]), &p, 8, 0).unwrap();
-        let r = rasterize(&view, &p, &t, None);
+        let r = rasterize(&view, &p, &t, None, None);
         assert!(
             r.tri.iter().all(|&x| x != 3),
             "the duplicate never wins a tie"
@@ -481,7 +497,7 @@ mod tests {
         assert!((view.depth_of_height(0.5)).abs() < 1e-12);
         // From below the far triangle is hidden.
         let view = OrthoView::fit(Frame::from_direction([0.0, 0.0, -1.0]), &p, 8, 0).unwrap();
-        assert!(!rasterize(&view, &p, &t, None).tri.contains(&2));
+        assert!(!rasterize(&view, &p, &t, None, None).tri.contains(&2));
     }
 
     #[test]
@@ -516,7 +532,7 @@ mod tests {
             far: -1.0,
             size: 8,
         };
-        let both = rasterize_scales(&view, &p, &t, None, &[1, 4]);
+        let both = rasterize_scales(&view, &p, &t, None, None, &[1, 4]);
         assert!(
             both[0].tri.contains(&(t.len() as u32 - 1)),
             "the sliver is drawn"
@@ -525,8 +541,42 @@ mod tests {
             !both[1].tri.contains(&(t.len() as u32 - 1)),
             "and misses every fine centre"
         );
-        assert_eq!(both[0], rasterize(&view, &p, &t, None));
-        assert_eq!(both[1], rasterize(&view.with_size(8 * 4), &p, &t, None));
+        assert_eq!(both[0], rasterize(&view, &p, &t, None, None));
+        assert_eq!(
+            both[1],
+            rasterize(&view.with_size(8 * 4), &p, &t, None, None)
+        );
+    }
+
+    #[test]
+    fn single_sided_triangles_are_culled_from_behind() {
+        // The quad winds counter-clockwise around +Z: it faces a viewer on the +Z side.
+        let (p, t) = quad();
+        let single = [true, false];
+        for (d, drawn) in [
+            ([0.0, 0.0, 1.0], [true, true]),
+            ([0.0, 0.0, -1.0], [false, true]),
+        ] {
+            let view = OrthoView::fit(Frame::from_direction(d), &p, 8, 0).unwrap();
+            let r = rasterize(&view, &p, &t, None, Some(&single));
+            for (tri, drawn) in drawn.into_iter().enumerate() {
+                assert_eq!(
+                    r.tri.contains(&(tri as u32)),
+                    drawn,
+                    "triangle {tri} from {d:?}"
+                );
+            }
+            let both = rasterize_scales(&view, &p, &t, None, Some(&single), &[1, 2]);
+            assert_eq!(both[0], r);
+        }
+        // The rule agrees with the world normal for an oblique view.
+        let d = normalize([0.3, -0.4, 0.8]);
+        let view = OrthoView::fit(Frame::from_direction(d), &p, 8, 0).unwrap();
+        let a = view.project([0.0, 0.0, 0.0]);
+        let b = view.project([1.0, 0.0, 0.0]);
+        let c = view.project([1.0, 1.0, 0.0]);
+        assert!(!faces_away(edge(a, b, c)));
+        assert!(faces_away(edge(a, c, b)));
     }
 
     #[test]
@@ -543,6 +593,7 @@ mod tests {
                 masked: &masked,
                 keep: &keep,
             }),
+            None,
         );
         assert!(r.covered() > 0 && !r.tri.contains(&0));
     }

@@ -38,8 +38,9 @@ struct MaterialUniform {
 pub struct GpuMesh {
     pub(crate) vertices: wgpu::Buffer,
     pub(crate) indices: wgpu::Buffer,
-    /// Per material with triangles: its bind group and its index range.
-    pub(crate) groups: Vec<(wgpu::BindGroup, std::ops::Range<u32>)>,
+    /// Per material with triangles: its bind group, its index range, and whether it is
+    /// double-sided (single-sided materials are drawn with back faces culled).
+    pub(crate) groups: Vec<(wgpu::BindGroup, std::ops::Range<u32>, bool)>,
     triangles: usize,
 }
 
@@ -110,7 +111,7 @@ impl GpuMesh {
         let mut groups = Vec::new();
         for (m, range) in ranges {
             let bind_group = material_bind_group(device, queue, layout, mesh, m)?;
-            groups.push((bind_group, range));
+            groups.push((bind_group, range, mesh.materials[m].double_sided));
         }
         Ok(GpuMesh {
             vertices: vertex_buffer,

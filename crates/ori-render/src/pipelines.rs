@@ -198,7 +198,13 @@ pub(crate) fn ori_pipeline(
     })
 }
 
-pub(crate) fn mesh_pipeline(device: &wgpu::Device, layouts: &Layouts) -> wgpu::RenderPipeline {
+/// The reference mesh's pipeline: `double_sided` materials draw both windings; single-sided
+/// ones cull back faces, as the CPU rasterizer does (`ori_raster::faces_away`).
+pub(crate) fn mesh_pipeline(
+    device: &wgpu::Device,
+    layouts: &Layouts,
+    double_sided: bool,
+) -> wgpu::RenderPipeline {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some("mesh.wgsl"),
         source: wgpu::ShaderSource::Wgsl(MESH_SHADER.into()),
@@ -220,8 +226,9 @@ pub(crate) fn mesh_pipeline(device: &wgpu::Device, layouts: &Layouts) -> wgpu::R
         },
         primitive: wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
-            // Both windings, as the CPU rasterizer.
-            cull_mode: None,
+            // Counter-clockwise seen from the front, as the meshes' windings.
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: (!double_sided).then_some(wgpu::Face::Back),
             ..Default::default()
         },
         depth_stencil: Some(wgpu::DepthStencilState {

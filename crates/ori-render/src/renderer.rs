@@ -58,7 +58,9 @@ pub struct Renderer {
     ori_pipeline: wgpu::RenderPipeline,
     /// Option 5: biased depth, depth test only.
     ori_biased_pipeline: wgpu::RenderPipeline,
+    /// The mesh: single-sided materials (back faces culled), double-sided ones.
     mesh_pipeline: wgpu::RenderPipeline,
+    mesh_double_sided_pipeline: wgpu::RenderPipeline,
     max_size: u32,
 }
 
@@ -115,7 +117,8 @@ impl Renderer {
         let layouts = Layouts::new(&device);
         let ori_biased_pipeline = ori_pipeline(&device, &layouts, Priority::BiasedDepth);
         let ori_pipeline = ori_pipeline(&device, &layouts, Priority::ClosestDirection);
-        let mesh_pipeline = mesh_pipeline(&device, &layouts);
+        let mesh_double_sided_pipeline = mesh_pipeline(&device, &layouts, true);
+        let mesh_pipeline = mesh_pipeline(&device, &layouts, false);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(RenderError::Gpu(e.to_string()));
         }
@@ -130,6 +133,7 @@ impl Renderer {
             ori_pipeline,
             ori_biased_pipeline,
             mesh_pipeline,
+            mesh_double_sided_pipeline,
             max_size: limits.max_texture_dimension_2d,
         })
     }
@@ -318,11 +322,15 @@ impl Renderer {
             for step in &plan.steps {
                 match step {
                     Step::Mesh(mesh) => {
-                        pass.set_pipeline(&self.mesh_pipeline);
                         pass.set_bind_group(0, &frame, &[]);
                         pass.set_vertex_buffer(0, mesh.vertices.slice(..));
                         pass.set_index_buffer(mesh.indices.slice(..), wgpu::IndexFormat::Uint32);
-                        for (material, range) in &mesh.groups {
+                        for (material, range, double_sided) in &mesh.groups {
+                            pass.set_pipeline(if *double_sided {
+                                &self.mesh_double_sided_pipeline
+                            } else {
+                                &self.mesh_pipeline
+                            });
                             pass.set_bind_group(1, material, &[]);
                             pass.draw_indexed(range.clone(), 0, 0..1);
                         }

@@ -286,6 +286,43 @@ fn mesh_coverage_matches_the_cpu_rasterizer() {
     assert!((0..gpu.len()).all(|i| gpu.source[i] == SOURCE_MESH || gpu.source[i] == SOURCE_NONE));
 }
 
+/// Single-sided materials are culled from behind on the GPU as on the CPU: looking into the
+/// cut of half a duck, its inside (back faces) is drawn only once the material is made
+/// double-sided.
+#[test]
+fn back_faces_of_single_sided_materials_are_culled_as_on_the_cpu() {
+    let r = renderer();
+    let built = duck();
+    let (lo, hi) = built.mesh.bounds();
+    let (lo, mut hi) = (lo.map(f64::from), hi.map(f64::from));
+    hi[0] = 0.5 * (lo[0] + hi[0]);
+    let half = ori_mesh::clip_to_box(&built.mesh, lo, hi).expect("clip");
+    let set = common::decoded_set(&built.package);
+    let v = ori_eval::eval_view(&half, [1.0, 0.0, 0.0], SIZE).expect("view");
+    let covered = |mesh: &Mesh| {
+        let ev = ori_eval::Evaluator::new(mesh, &set, &Default::default()).expect("eval");
+        let cpu = ev.mesh_coverage(&v);
+        let on_gpu = r.load_mesh(mesh).expect("mesh");
+        let gpu = r
+            .render_mesh(&on_gpu, &Camera::from_view(&v), SIZE, SIZE)
+            .expect("render");
+        let differ = (0..gpu.len())
+            .filter(|&i| gpu.covered(i) != cpu.get(i))
+            .count();
+        eprintln!("GPU and CPU differ at {differ} of {} pixels", cpu.count());
+        assert!(differ * 200 < cpu.count() as usize);
+        cpu.count()
+    };
+    let single = covered(&half);
+    let mut double = half.clone();
+    double
+        .materials
+        .iter_mut()
+        .for_each(|m| m.double_sided = true);
+    let both = covered(&double);
+    assert!(single * 10 < both * 9, "culled {single} of {both} pixels");
+}
+
 #[test]
 fn no_adapter_is_an_error_not_a_panic() {
     let out = Renderer::with_options(&RendererOptions {

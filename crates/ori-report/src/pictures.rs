@@ -98,7 +98,7 @@ pub fn sampling_picture(mesh: &Mesh, counts: &[u32], w: [f64; 3], size: u32) -> 
     let Ok(view) = OrthoView::fit(frame, &mesh.positions, size, 4) else {
         return p;
     };
-    let raster = rasterize(&view, &mesh.positions, &mesh.triangles, None);
+    let raster = rasterize(&view, &mesh.positions, &mesh.triangles, None, None);
     for (i, &tri) in raster.tri.iter().enumerate() {
         if tri == EMPTY {
             continue;

@@ -9,7 +9,7 @@
 use std::time::{Duration, Instant};
 
 use ori_eval::Evaluator;
-use ori_select::{Reference, SelectParams, all_view_masks, select_from_masks};
+use ori_select::{SelectParams, all_view_masks, select_from_masks};
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
 const RUNS: usize = 3;
@@ -57,13 +57,8 @@ fn main() {
         for _ in 0..RUNS {
             let start = Instant::now();
             let evaluator = Evaluator::new(&mesh, &set, &params.eval_params()).expect("evaluator");
-            let masks = all_view_masks(
-                &evaluator,
-                &directions,
-                params.rule.m() as usize,
-                Reference::Coverage,
-            )
-            .expect("masks");
+            let masks =
+                all_view_masks(&evaluator, &directions, params.rule.m() as usize).expect("masks");
             tm.push(start.elapsed());
             let t = Instant::now();
             let sel = select_from_masks(&masks, &params, set.maps.len()).expect("select");

@@ -22,17 +22,20 @@
 //! With the defaults (n = 20, 256 x 256 maps, s0 = 256, 16 + 7 steps over the columns the
 //! ray crosses, wall threshold 0.25), best:6 gives on the armadillo 0.130 % average and
 //! 0.362 % maximum coverage error with 2.72 impostors per view (PLT 277): the paper's
-//! 0.17 %, 0.37 % and 2.9 are met. On the Stanford bunny 0.305 % and 1.447 % with 3.63
-//! (PLT 69): not met. How the armadillo got there from 0.398 % / 1.242 % / 5.97, measured
-//! with `eval-table`: conservative edge texels in the bake (0.271 %); the 16 linear steps
-//! spent inside each map's occupied volume (0.246 %), then inside the columns the ray
-//! crosses (0.150 %, 3.21 impostors per view: grazing rays no longer step over thin parts);
-//! the wall threshold raised from 0.125 to 0.25 (0.130 %, 0.362 %, 2.72; the trade-off is in
-//! `ori_eval`'s documentation). What remains:
-//! - The bunny's worst views look up through the holes in the scan's base at the inside of
-//!   the shell, which an impostor sees only from nearly straight below. Keeping every wall
-//!   (threshold 0.5) fills them with the holes' rims (0.079 % / 0.189 % / 2.09 on the bunny)
-//!   but doubles the armadillo's colour error.
+//! 0.17 %, 0.37 % and 2.9 are met. On the Stanford bunny 0.151 % and 1.573 % with 2.65
+//! (PLT 64): average and impostors per view met, maximum not. How the armadillo got there
+//! from 0.398 % / 1.242 % / 5.97, measured with `eval-table`: conservative edge texels in
+//! the bake (0.271 %); the 16 linear steps spent inside each map's occupied volume
+//! (0.246 %), then inside the columns the ray crosses (0.150 %, 3.21 impostors per view:
+//! grazing rays no longer step over thin parts); the wall threshold raised from 0.125 to
+//! 0.25 (0.130 %, 0.362 %, 2.72; the trade-off is in `ori_eval`'s documentation). The
+//! bunny went from 0.305 % / 1.447 % / 3.63 to its figures when single-sided meshes began
+//! to be drawn as engines draw them, back faces culled (`ori_eval`, "The mesh as an engine
+//! draws it"): the inside of the shell seen through the holes in the scan's base no longer
+//! counts. What remains:
+//! - The bunny's worst views (1.2 to 1.6 %) look up through those holes: past the culled
+//!   inside, the viewer sees parts of the bunny behind the shell (an ear through the body),
+//!   which no impostor sees.
 //! - The armadillo's worst views (0.3 to 0.36 %) miss the insides of the thighs seen from
 //!   above, which none of the six closest impostors sees.
 
@@ -169,31 +172,15 @@ impl Selection {
     }
 }
 
-/// What coverage error is measured against.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Reference {
-    /// Every pixel the mesh covers (the GUIDE's definition; single ORIs).
-    #[default]
-    Coverage,
-    /// Only pixels whose nearest surface faces the viewer: a hierarchy node's part of a closed
-    /// model, whose inside (seen through the cuts) the neighbouring nodes hide at runtime.
-    FrontFaces,
-}
-
-/// The masks [`choose`] needs for direction `w`: the mesh's coverage (or, for
-/// [`Reference::FrontFaces`], its front-facing part) and, for each of the `m` closest facing
-/// impostors (closest first), the pixels of that coverage it draws.
+/// The masks [`choose`] needs for direction `w`: the mesh's coverage and, for each of the `m`
+/// closest facing impostors (closest first), the pixels of that coverage it draws.
 pub fn view_masks(
     evaluator: &Evaluator<'_>,
     w: [f64; 3],
     m: usize,
-    against: Reference,
 ) -> Result<ViewMasks, SelectError> {
     let view = evaluator.view(w)?;
-    let reference = match against {
-        Reference::Coverage => evaluator.mesh_coverage(&view),
-        Reference::FrontFaces => evaluator.front_coverage(&view),
-    };
+    let reference = evaluator.mesh_coverage(&view);
     let candidates = evaluator
         .facing(w)
         .into_iter()
@@ -211,11 +198,10 @@ pub fn all_view_masks(
     evaluator: &Evaluator<'_>,
     directions: &[[f64; 3]],
     m: usize,
-    against: Reference,
 ) -> Result<Vec<ViewMasks>, SelectError> {
     directions
         .par_iter()
-        .map(|&w| view_masks(evaluator, w, m, against))
+        .map(|&w| view_masks(evaluator, w, m))
         .collect()
 }
 
@@ -252,19 +238,9 @@ pub fn select(
     set: &ReliefSet,
     params: &SelectParams,
 ) -> Result<Selection, SelectError> {
-    select_against(mesh, set, params, Reference::Coverage)
-}
-
-/// [`select`] with coverage error measured against `against`.
-pub fn select_against(
-    mesh: &Mesh,
-    set: &ReliefSet,
-    params: &SelectParams,
-    against: Reference,
-) -> Result<Selection, SelectError> {
     params.validate()?;
     let evaluator = Evaluator::new(mesh, set, &params.eval_params())?;
     let directions = ori_views::evaluation_directions();
-    let masks = all_view_masks(&evaluator, &directions, params.rule.m() as usize, against)?;
+    let masks = all_view_masks(&evaluator, &directions, params.rule.m() as usize)?;
     select_from_masks(&masks, params, set.maps.len())
 }

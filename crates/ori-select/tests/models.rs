@@ -57,12 +57,13 @@ fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
 
 #[test]
 fn bunny_quality() {
-    // Measured 0.305 / 1.447 % and 3.63, PLT 69: above the paper's figures, because the
-    // worst views look up through the holes in the scan's base at the inside of the shell,
-    // which no impostor sees (see the crate documentation). Held with a small margin.
-    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.32, 1.5, 3.75);
+    // Measured 0.151 / 1.573 % and 2.65, PLT 64: the paper's average (0.17 %) and impostors
+    // per view (2.9) are met. The maximum is not: through the holes in the scan's base a
+    // viewer from below sees, past the culled inside of the shell, parts of the bunny behind
+    // it, which no impostor sees (see the crate documentation). Held with a small margin.
+    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.17, 1.65, 2.9);
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 65.0, "PLT {plt}");
+    assert!(plt.pixels() >= 60.0, "PLT {plt}");
 }
 
 #[test]

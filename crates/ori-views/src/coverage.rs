@@ -157,7 +157,7 @@ fn seen_counts(mesh: &Mesh, directions: &[[f64; 3]], resolution: u32) -> Vec<u32
 /// Add 1 to the count of every triangle `view` sees at one of its probe points (the test is
 /// described at [`sampling_coverage`]).
 fn add_seen(mesh: &Mesh, probes: &[[[f64; 3]; 4]], view: &OrthoView, counts: &mut [u32]) {
-    let raster = rasterize(view, &mesh.positions, &mesh.triangles, None);
+    let raster = rasterize(view, &mesh.positions, &mesh.triangles, None, None);
     let n = view.size as i64;
     let tolerance = 2.0 * view.half_size / f64::from(view.size);
     let height = |x: i64, y: i64| {

@@ -79,7 +79,7 @@ pub(crate) fn entropy_in(
     size: u32,
 ) -> f64 {
     let view = sphere.view(direction, size);
-    let raster = rasterize(&view, &mesh.positions, &mesh.triangles, None);
+    let raster = rasterize(&view, &mesh.positions, &mesh.triangles, None, None);
     entropy_of_item_buffer(raster.tri)
 }
 
