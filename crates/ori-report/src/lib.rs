@@ -41,8 +41,9 @@ const VIEWS: [(&str, [f64; 3]); 4] = [
 const PICTURE_SIZE: u32 = 256;
 
 /// Version of every picture's drawing, the evaluator's rendering rule included: bump it when
-/// either changes, so that the pictures kept from an older report are drawn again.
-pub const PICTURES_VERSION: u32 = 2;
+/// either changes, so that the pictures kept from an older report are drawn again. (3: the
+/// reference mesh culls the back faces of single-sided materials.)
+pub const PICTURES_VERSION: u32 = 3;
 
 /// What [`pictures_of`] adds to an asset's summary, kept beside its pictures with the stamp
 /// of what they were drawn from.
