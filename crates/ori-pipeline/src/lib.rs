@@ -181,7 +181,7 @@ impl Chain {
 
 /// Add the chain of one ORI of `asset` (labelled `label` in progress and messages) over the
 /// mesh output `mesh` = (job, output name): the asset's own mesh, or a hierarchy node's part
-/// of it. (A node's inside, seen through its cuts, is back faces, which are culled.)
+/// of it. (Through a node's cuts one sees back faces, culled unless double-sided.)
 fn plan_chain(
     graph: &mut Graph,
     stages: &Stages,
