@@ -24,7 +24,8 @@ pub(crate) struct CoverageMesh {
 }
 
 impl CoverageMesh {
-    pub fn new(mesh: &Mesh) -> CoverageMesh {
+    /// `single_sided`: [`Mesh::single_sided`], in the mesh's triangle order.
+    pub fn new(mesh: &Mesh, single_sided: &[bool]) -> CoverageMesh {
         let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for p in &mesh.positions {
             for k in 0..3 {
@@ -74,7 +75,6 @@ impl CoverageMesh {
                 remap[v as usize]
             }));
         }
-        let single_sided = mesh.single_sided();
         CoverageMesh {
             positions,
             triangles,

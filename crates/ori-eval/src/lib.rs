@@ -233,6 +233,7 @@ impl<'a> Evaluator<'a> {
                 )));
             }
         }
+        let single_sided = mesh.single_sided();
         Ok(Evaluator {
             mesh,
             set,
@@ -244,8 +245,8 @@ impl<'a> Evaluator<'a> {
                 .map(|m| WallMap::new(&m.depth, m.size(), params.march().threshold_codes()))
                 .collect(),
             occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
-            coverage_mesh: coverage::CoverageMesh::new(mesh),
-            single_sided: mesh.single_sided(),
+            coverage_mesh: coverage::CoverageMesh::new(mesh, &single_sided),
+            single_sided,
         })
     }
 
