@@ -59,7 +59,7 @@
 use ori_bake::{EMPTY_DEPTH, MAX_DEPTH, ReliefMap};
 use ori_raster::OrthoView;
 
-use crate::lanes::{F4, M4};
+use crate::lanes::{LaneMask, Lanes};
 
 /// What the ray through one pixel found in one impostor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,6 +123,24 @@ pub struct ImpostorRays {
     epx: f64,
     epy: f64,
     de: f64,
+    /// The SIMD code [`ImpostorRays::covers_many`] runs.
+    simd: Simd,
+}
+
+/// Which SIMD code [`ImpostorRays::covers_many`] runs. Every choice gives the same answer
+/// (each lane does the scalar rule's IEEE operations); they differ only in speed. A choice the
+/// processor lacks runs as [`Simd::Four`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Simd {
+    /// The widest the processor has (the default).
+    #[default]
+    Widest,
+    /// Eight lanes compiled for AVX-512 (AVX operations, twice the registers).
+    Avx512,
+    /// Eight lanes in AVX2 registers.
+    Avx2,
+    /// Four lanes: SSE registers on x86-64, plain arrays elsewhere.
+    Four,
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -192,6 +210,7 @@ impl ImpostorRays {
             epx: -tx[2] / zr / eval_range,
             epy: -ty[2] / zr / eval_range,
             de: 1.0 / (zr * eval_range),
+            simd: Simd::Widest,
         };
         let finite = out.o0.iter().chain(&out.ex).chain(&out.ey).chain(&out.dir);
         finite.into_iter().all(|c| c.is_finite()).then_some(out)
@@ -310,22 +329,88 @@ impl ImpostorRays {
         }
     }
 
+    /// These rays with [`ImpostorRays::covers_many`] running `simd` (the tests hold every
+    /// choice to the scalar rule).
+    pub fn with_simd(mut self, simd: Simd) -> ImpostorRays {
+        self.simd = simd;
+        self
+    }
+
     /// [`ImpostorRays::covers`] for many pixels at once: `f(i, covered)` for each
-    /// `(i, x, y)` of `pixels`, in order. Rays are searched four at a time in SSE lanes, and
+    /// `(i, x, y)` of `pixels`, in order. Rays are searched several at a time in SIMD lanes
+    /// (eight in AVX registers where the processor has AVX2, else four in SSE registers), and
     /// the binary searches left to do as well, so that their dependent lookups overlap. Each
-    /// lane performs exactly the operations of the scalar rule.
+    /// lane performs exactly the operations of the scalar rule, so the answer does not depend
+    /// on the processor. The lane code is generic and `#[inline(always)]` down to the lane
+    /// operations, so that each width is compiled whole inside its `target_feature` function.
     pub fn covers_many(
+        &self,
+        depth: &[u8],
+        walls: &WallMap,
+        pixels: &[(usize, u32, u32)],
+        f: impl FnMut(usize, bool),
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            let widest = self.simd == Simd::Widest;
+            if (widest || self.simd == Simd::Avx512) && has!("avx512f") && has!("avx512vl") {
+                // SAFETY: the features were detected just above.
+                unsafe { self.covers_many_avx512(depth, walls, pixels, f) };
+                return;
+            }
+            if (widest || self.simd == Simd::Avx2) && has!("avx2") {
+                // SAFETY: AVX2 was detected just above.
+                unsafe { self.covers_many_avx2(depth, walls, pixels, f) };
+                return;
+            }
+        }
+        self.covers_many_lanes::<crate::lanes::F4, 4>(depth, walls, pixels, f)
+    }
+
+    /// [`ImpostorRays::covers_many`] on eight lanes, compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn covers_many_avx2(
+        &self,
+        depth: &[u8],
+        walls: &WallMap,
+        pixels: &[(usize, u32, u32)],
+        f: impl FnMut(usize, bool),
+    ) {
+        self.covers_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
+    }
+
+    /// [`ImpostorRays::covers_many`] on eight lanes, compiled for AVX-512 (the same AVX
+    /// operations, with twice the registers, so fewer values go through the stack).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    fn covers_many_avx512(
+        &self,
+        depth: &[u8],
+        walls: &WallMap,
+        pixels: &[(usize, u32, u32)],
+        f: impl FnMut(usize, bool),
+    ) {
+        self.covers_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
+    }
+
+    /// [`ImpostorRays::covers_many`] on `W` lanes of `V`.
+    #[inline(always)]
+    fn covers_many_lanes<V: Lanes<W>, const W: usize>(
         &self,
         depth: &[u8],
         walls: &WallMap,
         pixels: &[(usize, u32, u32)],
         mut f: impl FnMut(usize, bool),
     ) {
-        // Brackets the binary search must decide, refined four at a time.
-        let mut pending = [(0usize, Bracket::default()); 8];
+        // Brackets the binary search must decide, refined `W` at a time (at most `2 W - 1`
+        // wait).
+        let mut pending = [(0usize, Bracket::default()); 16];
         let mut count = 0;
-        for chunk in pixels.chunks(4) {
-            for (&(i, _, _), lane) in chunk.iter().zip(self.linear4(depth, walls, chunk)) {
+        for chunk in pixels.chunks(W) {
+            let lanes = self.linear_lanes::<V, W>(depth, walls, chunk);
+            for (&(i, _, _), lane) in chunk.iter().zip(lanes) {
                 match lane {
                     Lane::Miss => f(i, false),
                     Lane::Covered => f(i, true),
@@ -335,112 +420,106 @@ impl ImpostorRays {
                     }
                 }
             }
-            if count >= 4 {
-                self.refine4(depth, &pending[..4], &mut f);
-                pending.copy_within(4..count, 0);
-                count -= 4;
+            if count >= W {
+                self.refine_lanes::<V, W>(depth, &pending[..W], &mut f);
+                pending.copy_within(W..count, 0);
+                count -= W;
             }
         }
         if count > 0 {
-            self.refine4(depth, &pending[..count], &mut f);
+            self.refine_lanes::<V, W>(depth, &pending[..count], &mut f);
         }
     }
 
-    /// Rule 3 on four lanes.
+    /// Rule 3 on `W` lanes.
     #[inline(always)]
-    fn codes4(&self, depth: &[u8], x: F4, y: F4) -> F4 {
-        let (zero, n, last) = (F4::splat(0.0), F4::splat(self.n_f), F4::splat(self.last));
-        let inside = x.ge(zero).and(y.ge(zero)).and(x.lt(n)).and(y.lt(n));
-        let xi = x.max(zero).min(last).trunc();
-        let yi = y.max(zero).min(last).trunc();
+    fn codes_lanes<V: Lanes<W>, const W: usize>(&self, depth: &[u8], x: V, y: V) -> V {
+        let (inside, xi, yi) = self.texels_lanes::<V, W>(x, y);
         let stride = self.n as u32;
-        let codes: [f32; 4] = std::array::from_fn(|l| {
-            f32::from(depth[(yi[l] as u32 * stride + xi[l] as u32) as usize])
-        });
-        F4::select(
-            inside,
-            F4::from_array(codes),
-            F4::splat(f32::from(EMPTY_DEPTH)),
-        )
+        let mut codes = [EMPTY; W];
+        for (l, code) in codes.iter_mut().enumerate() {
+            let texel = f32::from(depth[(yi[l] as u32 * stride + xi[l] as u32) as usize]);
+            *code = if inside[l] { texel } else { EMPTY };
+        }
+        V::from_array(codes)
     }
 
-    /// [`ImpostorRays::covers`] for up to four pixels in lockstep, but for the binary search:
+    /// [`ImpostorRays::covers`] for up to `W` pixels in lockstep, but for the binary search:
     /// rules 1 to 4 and the shortcuts, the same operations lane by lane.
-    fn linear4(&self, depth: &[u8], walls: &WallMap, pixels: &[(usize, u32, u32)]) -> [Lane; 4] {
+    #[inline(always)]
+    fn linear_lanes<V: Lanes<W>, const W: usize>(
+        &self,
+        depth: &[u8],
+        walls: &WallMap,
+        pixels: &[(usize, u32, u32)],
+    ) -> [Lane; W] {
         let centre = |l: usize, c: fn(&(usize, u32, u32)) -> u32| {
             pixels.get(l).map_or(0.5, |p| c(p) as f32 + 0.5)
         };
-        let px = F4::from_array(std::array::from_fn(|l| centre(l, |p| p.1)));
-        let py = F4::from_array(std::array::from_fn(|l| centre(l, |p| p.2)));
-        let (zero, n) = (F4::splat(0.0), F4::splat(self.n_f));
-        let splat2 = |v: [f32; 2]| (F4::splat(v[0]), F4::splat(v[1]));
-        let ((o0x, o0y), (exx, exy), (eyx, eyy)) =
-            (splat2(self.o0), splat2(self.ex), splat2(self.ey));
+        let px = V::from_array(std::array::from_fn(|l| centre(l, |p| p.1)));
+        let py = V::from_array(std::array::from_fn(|l| centre(l, |p| p.2)));
+        // (Lane operations stay out of closures: a closure is not compiled with the
+        // features of the function it is inlined into, which would leave AVX calls in it.)
+        let [o0x, o0y] = self.o0.map(V::splat);
+        let [exx, exy] = self.ex.map(V::splat);
+        let [eyx, eyy] = self.ey.map(V::splat);
         let ox = o0x.add(px.mul(exx)).add(py.mul(eyx));
         let oy = o0y.add(px.mul(exy)).add(py.mul(eyy));
         // Rule 2, as `clip` does it: the direction is the same for every lane.
         let bd = self.bounds;
-        let mut z_in = F4::splat(bd[4]);
-        let mut z_out = F4::splat(bd[5]);
-        let mut open = M4::from_array(std::array::from_fn(|l| l < pixels.len()));
+        let mut z_in = V::splat(bd[4]);
+        let mut z_out = V::splat(bd[5]);
+        let mut open = V::Mask::from_array(std::array::from_fn(|l| l < pixels.len()));
         for (o, d, lo, hi) in [
             (ox, self.dir[0], bd[0], bd[1]),
             (oy, self.dir[1], bd[2], bd[3]),
         ] {
-            let (lo, hi) = (F4::splat(lo), F4::splat(hi));
+            let (lo, hi) = (V::splat(lo), V::splat(hi));
             if d == 0.0 {
                 open = open.and(o.ge(lo)).and(o.le(hi));
             } else {
-                let d = F4::splat(d);
+                let d = V::splat(d);
                 let (a, b) = (lo.sub(o).div(d), hi.sub(o).div(d));
                 z_in = z_in.max(a.min(b));
                 z_out = z_out.min(a.max(b));
             }
         }
         // Rule 2's narrowing to the columns.
-        let spans = self.columns.narrow4(
+        let spans = self.columns.narrow_lanes::<V, W>(
             (ox, oy),
             &self.column_dir,
             (z_in, z_out),
             open.and(z_in.lt(z_out)).to_array(),
         );
-        let open = M4::from_array(spans.map(|s| s.is_some()));
-        let z_in = F4::from_array(spans.map(|s| s.map_or(0.0, |s| s.0)));
-        let z_out = F4::from_array(spans.map(|s| s.map_or(0.0, |s| s.1)));
+        let open = V::Mask::from_array(spans.map(|s| s.is_some()));
+        let z_in = V::from_array(spans.map(|s| s.map_or(0.0, |s| s.0)));
+        let z_out = V::from_array(spans.map(|s| s.map_or(0.0, |s| s.1)));
         let mut searching = open.and(z_in.lt(z_out));
         let step = z_out
             .sub(z_in)
-            .div(F4::splat(self.params.linear_steps as f32));
-        let (dx, dy) = splat2(self.dir);
+            .div(V::splat(self.params.linear_steps as f32));
+        let [dx, dy] = self.dir.map(V::splat);
         let mut lo = z_in;
-        let mut hi = F4::splat(f32::NAN);
+        let mut hi = V::splat(f32::NAN);
         for k in 1..=self.params.linear_steps {
             if !searching.any() {
                 break;
             }
-            let z = z_in.add(step.mul(F4::splat(k as f32)));
-            let codes = self.codes4(depth, ox.add(z.mul(dx)), oy.add(z.mul(dy)));
+            let z = z_in.add(step.mul(V::splat(k as f32)));
+            let codes = self.codes_lanes::<V, W>(depth, ox.add(z.mul(dx)), oy.add(z.mul(dy)));
             let below = searching.and(z.ge(codes));
-            hi = F4::select(below, z, hi);
+            hi = V::select(below, z, hi);
             searching = searching.and_not(below);
-            lo = F4::select(searching, z, lo);
+            lo = V::select(searching, z, lo);
         }
         // The shortcuts need the texels of both ends of the bracket.
-        let ends = |z: F4| {
-            let (x, y) = (ox.add(z.mul(dx)), oy.add(z.mul(dy)));
-            let inside = x.ge(zero).and(y.ge(zero)).and(x.lt(n)).and(y.lt(n));
-            let last = F4::splat(self.last);
-            (
-                inside.to_array(),
-                x.max(zero).min(last).trunc(),
-                y.max(zero).min(last).trunc(),
-            )
-        };
-        let ((in_lo, xl, yl), (in_hi, xh, yh)) = (ends(lo), ends(hi));
+        let (in_lo, xl, yl) = self.texels_lanes::<V, W>(ox.add(lo.mul(dx)), oy.add(lo.mul(dy)));
+        let (in_hi, xh, yh) = self.texels_lanes::<V, W>(ox.add(hi.mul(dx)), oy.add(hi.mul(dy)));
         let (ox, oy, lo, hi) = (ox.to_array(), oy.to_array(), lo.to_array(), hi.to_array());
-        std::array::from_fn(|l| {
+        let mut lanes = [Lane::Miss; W];
+        for (l, lane) in lanes.iter_mut().enumerate() {
             if hi[l].is_nan() {
-                return Lane::Miss;
+                continue;
             }
             if in_lo[l] && in_hi[l] {
                 let (tl, th) = (
@@ -448,36 +527,63 @@ impl ImpostorRays {
                     (xh[l] as usize, yh[l] as usize),
                 );
                 if tl == th {
-                    return Lane::Covered;
+                    *lane = Lane::Covered;
+                    continue;
                 }
                 let ((x0, x1), (y0, y1)) = (minmax(tl.0, th.0), minmax(tl.1, th.1));
                 if self.adjacent_end && !walls.any(x0, y0, x1, y1) {
-                    return Lane::Covered;
+                    *lane = Lane::Covered;
+                    continue;
                 }
             }
-            Lane::Refine(Bracket {
+            *lane = Lane::Refine(Bracket {
                 ox: ox[l],
                 oy: oy[l],
                 lo: lo[l],
                 hi: hi[l],
-            })
-        })
+            });
+        }
+        lanes
     }
 
-    /// [`ImpostorRays::refine`] on up to four brackets in lockstep; `f(i, is a hit)`.
-    fn refine4(&self, depth: &[u8], batch: &[(usize, Bracket)], f: &mut impl FnMut(usize, bool)) {
+    /// Per lane: whether texture-space point `(x, y)` lies in the map, and its texel
+    /// (clamped into the map).
+    #[inline(always)]
+    fn texels_lanes<V: Lanes<W>, const W: usize>(
+        &self,
+        x: V,
+        y: V,
+    ) -> ([bool; W], [i32; W], [i32; W]) {
+        let (zero, n, last) = (V::splat(0.0), V::splat(self.n_f), V::splat(self.last));
+        let inside = x.ge(zero).and(y.ge(zero)).and(x.lt(n)).and(y.lt(n));
+        (
+            inside.to_array(),
+            x.max(zero).min(last).trunc(),
+            y.max(zero).min(last).trunc(),
+        )
+    }
+
+    /// [`ImpostorRays::refine`] on up to `W` brackets in lockstep; `f(i, is a hit)`.
+    #[inline(always)]
+    fn refine_lanes<V: Lanes<W>, const W: usize>(
+        &self,
+        depth: &[u8],
+        batch: &[(usize, Bracket)],
+        f: &mut impl FnMut(usize, bool),
+    ) {
         let lane = |l: usize| batch[l.min(batch.len() - 1)].1;
-        let ox = F4::from_array(std::array::from_fn(|l| lane(l).ox));
-        let oy = F4::from_array(std::array::from_fn(|l| lane(l).oy));
-        let mut lo = F4::from_array(std::array::from_fn(|l| lane(l).lo));
-        let mut hi = F4::from_array(std::array::from_fn(|l| lane(l).hi));
-        let (dx, dy) = (F4::splat(self.dir[0]), F4::splat(self.dir[1]));
-        let half = F4::splat(0.5);
+        let ox = V::from_array(std::array::from_fn(|l| lane(l).ox));
+        let oy = V::from_array(std::array::from_fn(|l| lane(l).oy));
+        let mut lo = V::from_array(std::array::from_fn(|l| lane(l).lo));
+        let mut hi = V::from_array(std::array::from_fn(|l| lane(l).hi));
+        let (dx, dy) = (V::splat(self.dir[0]), V::splat(self.dir[1]));
+        let half = V::splat(0.5);
         for _ in 0..self.params.binary_steps {
             let mid = half.mul(lo.add(hi));
-            let below = mid.ge(self.codes4(depth, ox.add(mid.mul(dx)), oy.add(mid.mul(dy))));
-            hi = F4::select(below, mid, hi);
-            lo = F4::select(below, lo, mid);
+            let below =
+                mid.ge(self.codes_lanes::<V, W>(depth, ox.add(mid.mul(dx)), oy.add(mid.mul(dy))));
+            hi = V::select(below, mid, hi);
+            lo = V::select(below, lo, mid);
         }
         let (lo, hi) = (lo.to_array(), hi.to_array());
         let [dx, dy] = self.dir;
@@ -630,7 +736,7 @@ impl WallMap {
     }
 
     /// Whether a flagged texel lies in `[x0, x1] x [y0, y1]` (inclusive).
-    #[inline]
+    #[inline(always)]
     pub fn any(&self, x0: usize, y0: usize, x1: usize, y1: usize) -> bool {
         let (w0, w1) = (x0 / 64, x1 / 64);
         // Bits x0 % 64 and up of the first word, up to x1 % 64 of the last.
@@ -827,94 +933,91 @@ impl Columns {
             .flatten()
     }
 
-    /// [`Columns::narrow`] for four rays with the same direction, both walks in lockstep (the
+    /// [`Columns::narrow`] for `W` rays with the same direction, both walks in lockstep (the
     /// same operations lane by lane); `None` for the lanes not `open`.
-    pub(crate) fn narrow4(
+    #[inline(always)]
+    fn narrow_lanes<V: Lanes<W>, const W: usize>(
         &self,
-        (ox, oy): (F4, F4),
+        (ox, oy): (V, V),
         dir: &ColumnDir,
-        (za, zb): (F4, F4),
-        open: [bool; 4],
-    ) -> [Option<(f32, f32)>; 4] {
+        (za, zb): (V, V),
+        open: [bool; W],
+    ) -> [Option<(f32, f32)>; W] {
         let k = self.cells as i32;
         let (ax, ay) = (&dir.x, &dir.y);
         let [dx, dy] = dir.d;
-        let cells = |c: F4| {
-            let idx = c.mul(F4::splat(CELL_SCALE)).trunc();
-            F4::from_array(idx.map(|v| v.clamp(0, k - 1) as f32))
-        };
         let (mut i, mut j) = (
-            cells(ox.add(za.mul(F4::splat(dx)))),
-            cells(oy.add(za.mul(F4::splat(dy)))),
+            self.cells_lanes::<V, W>(ox.add(za.mul(V::splat(dx)))),
+            self.cells_lanes::<V, W>(oy.add(za.mul(V::splat(dy)))),
         );
-        let (mut in_x, mut out_x) = (ax.entry4(ox, i), ax.exit4(ox, i));
-        let (mut in_y, mut out_y) = (ay.entry4(oy, j), ay.exit4(oy, j));
-        let (sx, sy) = (F4::splat(ax.step as f32), F4::splat(ay.step as f32));
-        let (zero, kf) = (F4::splat(0.0), F4::splat(k as f32));
-        let (one, empty) = (F4::splat(1.0), F4::splat(EMPTY));
+        let (mut in_x, mut out_x) = (ax.entry_lanes::<V, W>(ox, i), ax.exit_lanes::<V, W>(ox, i));
+        let (mut in_y, mut out_y) = (ay.entry_lanes::<V, W>(oy, j), ay.exit_lanes::<V, W>(oy, j));
+        let (sx, sy) = (V::splat(ax.step as f32), V::splat(ay.step as f32));
+        let (zero, kf) = (V::splat(0.0), V::splat(k as f32));
+        let (one, empty) = (V::splat(1.0), V::splat(EMPTY));
         // From the front: the first cell whose column the ray enters.
-        let mut first = F4::splat(FAR);
-        let mut active = M4::from_array(open);
+        let mut first = V::splat(FAR);
+        let mut active = V::Mask::from_array(open);
         for _ in 0..2 * k + 2 {
             if !active.any() {
                 break;
             }
             let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
-            let tops = self.tops4(i, j);
+            let tops = self.tops_lanes::<V, W>(i, j);
             let entered = lo.max(tops.sub(one));
             let found = active.and(tops.lt(empty)).and(entered.lt(hi));
-            first = F4::select(found, entered, first);
+            first = V::select(found, entered, first);
             active = active.and_not(found).and_not(hi.ge(zb));
             let step_x = out_x.le(out_y);
             let (next_i, next_j) = (i.add(sx), j.add(sy));
-            i = F4::select(step_x, next_i, i);
-            j = F4::select(step_x, j, next_j);
+            i = V::select(step_x, next_i, i);
+            j = V::select(step_x, j, next_j);
             (in_x, out_x) = (
-                F4::select(step_x, out_x, in_x),
-                F4::select(step_x, ax.exit4(ox, next_i), out_x),
+                V::select(step_x, out_x, in_x),
+                V::select(step_x, ax.exit_lanes::<V, W>(ox, next_i), out_x),
             );
             (in_y, out_y) = (
-                F4::select(step_x, in_y, out_y),
-                F4::select(step_x, out_y, ay.exit4(oy, next_j)),
+                V::select(step_x, in_y, out_y),
+                V::select(step_x, out_y, ay.exit_lanes::<V, W>(oy, next_j)),
             );
             let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
             active = active.and(inside);
         }
         // From the back, for the lanes that found a first entry.
         let (mut i, mut j) = (
-            cells(ox.add(zb.mul(F4::splat(dx)))),
-            cells(oy.add(zb.mul(F4::splat(dy)))),
+            self.cells_lanes::<V, W>(ox.add(zb.mul(V::splat(dx)))),
+            self.cells_lanes::<V, W>(oy.add(zb.mul(V::splat(dy)))),
         );
-        let (mut in_x, mut out_x) = (ax.entry4(ox, i), ax.exit4(ox, i));
-        let (mut in_y, mut out_y) = (ay.entry4(oy, j), ay.exit4(oy, j));
-        let mut last = F4::splat(-FAR);
-        let mut active = M4::from_array(open).and(first.lt(F4::splat(FAR)));
+        let (mut in_x, mut out_x) = (ax.entry_lanes::<V, W>(ox, i), ax.exit_lanes::<V, W>(ox, i));
+        let (mut in_y, mut out_y) = (ay.entry_lanes::<V, W>(oy, j), ay.exit_lanes::<V, W>(oy, j));
+        let mut last = V::splat(-FAR);
+        let mut active = V::Mask::from_array(open).and(first.lt(V::splat(FAR)));
         for _ in 0..2 * k + 2 {
             if !active.any() {
                 break;
             }
             let (lo, hi) = (za.max(in_x).max(in_y), zb.min(out_x).min(out_y));
-            let tops = self.tops4(i, j);
+            let tops = self.tops_lanes::<V, W>(i, j);
             let found = active.and(tops.lt(empty)).and(lo.max(tops.sub(one)).lt(hi));
-            last = F4::select(found, hi, last);
+            last = V::select(found, hi, last);
             active = active.and_not(found).and_not(lo.le(za));
             let step_x = in_x.ge(in_y);
             let (next_i, next_j) = (i.sub(sx), j.sub(sy));
-            i = F4::select(step_x, next_i, i);
-            j = F4::select(step_x, j, next_j);
+            i = V::select(step_x, next_i, i);
+            j = V::select(step_x, j, next_j);
             (in_x, out_x) = (
-                F4::select(step_x, ax.entry4(ox, next_i), in_x),
-                F4::select(step_x, in_x, out_x),
+                V::select(step_x, ax.entry_lanes::<V, W>(ox, next_i), in_x),
+                V::select(step_x, in_x, out_x),
             );
             (in_y, out_y) = (
-                F4::select(step_x, in_y, ay.entry4(oy, next_j)),
-                F4::select(step_x, out_y, in_y),
+                V::select(step_x, in_y, ay.entry_lanes::<V, W>(oy, next_j)),
+                V::select(step_x, out_y, in_y),
             );
             let inside = i.ge(zero).and(j.ge(zero)).and(i.lt(kf)).and(j.lt(kf));
             active = active.and(inside);
         }
         let start = match dir.back_off {
-            Some(b) => first.sub(F4::splat(b)).max(za),
+            Some(b) => first.sub(V::splat(b)).max(za),
             None => za,
         };
         let (first, last, start) = (first.to_array(), last.to_array(), start.to_array());
@@ -923,14 +1026,30 @@ impl Columns {
 
     /// The tops of cells `(i, j)` (lanes of exact integers), clamped into the grid.
     #[inline(always)]
-    fn tops4(&self, i: F4, j: F4) -> F4 {
-        let last = F4::splat(self.cells as f32 - 1.0);
-        let clamp = |c: F4| c.max(F4::splat(0.0)).min(last);
-        let index = clamp(j)
-            .mul(F4::splat(self.cells as f32))
-            .add(clamp(i))
+    fn tops_lanes<V: Lanes<W>, const W: usize>(&self, i: V, j: V) -> V {
+        let (zero, last) = (V::splat(0.0), V::splat(self.cells as f32 - 1.0));
+        let index = j
+            .max(zero)
+            .min(last)
+            .mul(V::splat(self.cells as f32))
+            .add(i.max(zero).min(last))
             .trunc();
-        F4::from_array(index.map(|t| f32::from(self.tops[t as usize])))
+        let mut tops = [EMPTY; W];
+        for (top, t) in tops.iter_mut().zip(index) {
+            *top = f32::from(self.tops[t as usize]);
+        }
+        V::from_array(tops)
+    }
+
+    /// [`Columns::cell`] on `W` lanes, as lanes of exact integers.
+    #[inline(always)]
+    fn cells_lanes<V: Lanes<W>, const W: usize>(&self, c: V) -> V {
+        let last = self.cells as i32 - 1;
+        let mut cells = [0.0; W];
+        for (cell, t) in cells.iter_mut().zip(c.mul(V::splat(CELL_SCALE)).trunc()) {
+            *cell = t.clamp(0, last) as f32;
+        }
+        V::from_array(cells)
     }
 
     /// The cell index of texel coordinate `c`, clamped into the grid.
@@ -1051,24 +1170,24 @@ impl Axis {
         (self.entry(o, i), self.exit(o, i))
     }
 
-    /// [`Axis::entry`] and [`Axis::exit`] on four lanes, the same operations lane by lane.
+    /// [`Axis::entry`] and [`Axis::exit`] on `W` lanes, the same operations lane by lane.
     #[inline(always)]
-    fn entry4(&self, o: F4, i: F4) -> F4 {
-        self.at4(o, i.add(F4::splat(self.entry as f32)), -FAR)
+    fn entry_lanes<V: Lanes<W>, const W: usize>(&self, o: V, i: V) -> V {
+        self.at_lanes::<V, W>(o, i.add(V::splat(self.entry as f32)), -FAR)
     }
 
     #[inline(always)]
-    fn exit4(&self, o: F4, i: F4) -> F4 {
-        self.at4(o, i.add(F4::splat(self.exit as f32)), FAR)
+    fn exit_lanes<V: Lanes<W>, const W: usize>(&self, o: V, i: V) -> V {
+        self.at_lanes::<V, W>(o, i.add(V::splat(self.exit as f32)), FAR)
     }
 
-    /// [`Axis::at`] on four lanes; `off` on an axis the ray does not move on.
+    /// [`Axis::at`] on `W` lanes; `off` on an axis the ray does not move on.
     #[inline(always)]
-    fn at4(&self, o: F4, b: F4, off: f32) -> F4 {
+    fn at_lanes<V: Lanes<W>, const W: usize>(&self, o: V, b: V, off: f32) -> V {
         if self.step == 0 {
-            F4::splat(off)
+            V::splat(off)
         } else {
-            b.mul(F4::splat(CELL)).sub(o).mul(F4::splat(self.inv))
+            b.mul(V::splat(CELL)).sub(o).mul(V::splat(self.inv))
         }
     }
 }

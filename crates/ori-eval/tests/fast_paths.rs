@@ -2,7 +2,7 @@
 
 mod common;
 
-use ori_eval::{EvalParams, Evaluator, Mask};
+use ori_eval::{EvalParams, Evaluator, Mask, Simd, WallMap};
 use ori_raster::{EMPTY, rasterize};
 
 /// The rasterizer's coverage of `mesh` through `view`, culled (as the evaluator) or not.
@@ -56,6 +56,59 @@ fn impostor_masks_are_the_traced_coverage() {
                 let within = ev.mesh_coverage(&view);
                 let restricted = ev.impostor_mask(&view, i, Some(&within));
                 assert_eq!(restricted.count(), fast.count() - fast.count_minus(&within));
+            }
+        }
+    }
+}
+
+#[test]
+fn every_lane_width_gives_the_scalar_rule() {
+    // Eight AVX lanes where the processor has AVX2 (with AVX-512's registers where it has
+    // those), four SSE lanes otherwise: the same IEEE operations lane by lane. A choice the
+    // processor lacks runs four lanes.
+    #[cfg(target_arch = "x86_64")]
+    eprintln!(
+        "wide lanes here: avx2 {}, avx512vl {}",
+        std::arch::is_x86_feature_detected!("avx2"),
+        std::arch::is_x86_feature_detected!("avx512vl")
+    );
+    let (mesh, set) = common::bunny();
+    for wall_threshold in [0.05, 0.25] {
+        let params = EvalParams {
+            wall_threshold,
+            ..EvalParams::default()
+        };
+        let ev = Evaluator::new(mesh, set, &params).unwrap();
+        let march = params.march();
+        for w in ori_views::evaluation_directions().iter().step_by(41) {
+            let view = ev.view(*w).unwrap();
+            for &i in ev.facing(*w).iter().take(6) {
+                let map = &set.maps[i];
+                let walls = WallMap::new(&map.depth, map.size(), march.threshold_codes());
+                let rays = ev.rays(&view, i).unwrap();
+                let [x0, x1, y0, y1] = rays.footprint(view.size);
+                let pixels: Vec<(usize, u32, u32)> = (y0..y1)
+                    .flat_map(|y| (x0..x1).map(move |x| (0, x, y)))
+                    .enumerate()
+                    .map(|(k, (_, x, y))| (k, x, y))
+                    .collect();
+                let scalar: Vec<bool> = pixels
+                    .iter()
+                    .map(|&(_, x, y)| rays.covers(&map.depth, &walls, x, y))
+                    .collect();
+                for simd in [Simd::Widest, Simd::Avx512, Simd::Avx2, Simd::Four] {
+                    let lanes = rays.clone().with_simd(simd);
+                    let mut got = vec![None; pixels.len()];
+                    lanes.covers_many(&map.depth, &walls, &pixels, |k, covered| {
+                        assert!(
+                            got[k].replace(covered).is_none(),
+                            "pixel {k} answered twice"
+                        );
+                    });
+                    let got: Vec<bool> = got.into_iter().map(|c| c.expect("answered")).collect();
+                    assert_eq!(got, scalar, "{simd:?}, impostor {i}, direction {w:?}");
+                }
+                assert!(scalar.contains(&true) && scalar.contains(&false));
             }
         }
     }
