@@ -13,9 +13,16 @@ use ori_select::{Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
 pub struct Args {
     /// Model file (glTF/GLB, OBJ or PLY).
     model: PathBuf,
-    /// Number of impostors n (view planning, default strategy).
+    /// Number of impostors n (view planning).
     #[arg(long, default_value_t = 20)]
     impostors: usize,
+    /// View-planning strategy: regular, minimal or perturbed (`[views] strategy`).
+    #[arg(long, default_value = "perturbed", value_parser = parse_strategy)]
+    strategy: ori_views::Strategy,
+    /// Perturbed strategy: how far in degrees a regular direction may move
+    /// (`[views] search_radius_deg`).
+    #[arg(long)]
+    search_radius_deg: Option<f64>,
     /// Relief-map resolution.
     #[arg(long, default_value_t = 256)]
     resolution: u32,
@@ -74,9 +81,12 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
     let mesh = ori_mesh::load_file(&args.model, &Default::default())
         .map_err(|e| e.to_string())?
         .mesh;
+    let defaults = ori_views::ViewParams::default();
     let views = ori_views::ViewParams {
         count: args.impostors,
-        ..Default::default()
+        strategy: args.strategy,
+        search_radius_deg: args.search_radius_deg.unwrap_or(defaults.search_radius_deg),
+        ..defaults
     };
     let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
     let bake = ori_bake::BakeParams {
@@ -214,4 +224,32 @@ fn print_table(summaries: &[RuleSummary], per_view: &[Vec<ori_select::RuleView>]
             .map(|s| format!("{:.4}", s.avg_depth_error))
             .collect(),
     );
+}
+
+/// A `[views] strategy` name.
+fn parse_strategy(name: &str) -> Result<ori_views::Strategy, String> {
+    use ori_views::Strategy;
+    [
+        Strategy::Regular,
+        Strategy::MinimalSampling,
+        Strategy::Perturbed,
+    ]
+    .into_iter()
+    .find(|s| s.name() == name)
+    .ok_or_else(|| format!("unknown strategy {name:?} (regular, minimal or perturbed)"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_strategy;
+    use ori_views::Strategy;
+
+    #[test]
+    fn strategies_are_named_as_in_pipeline_toml() {
+        assert_eq!(parse_strategy("regular"), Ok(Strategy::Regular));
+        assert_eq!(parse_strategy("minimal"), Ok(Strategy::MinimalSampling));
+        assert_eq!(parse_strategy("perturbed"), Ok(Strategy::Perturbed));
+        let err = parse_strategy("random").unwrap_err();
+        assert!(err.contains("\"random\"") && err.contains("regular, minimal or perturbed"));
+    }
 }
