@@ -59,16 +59,9 @@ impl<'m> RayCaster<'m> {
             + (x as usize / self.cell).min(self.grid - 1);
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         for &t in &self.cells[c] {
-            let world = self.mesh.triangles[t as usize]
-                .map(|i| self.mesh.positions[i as usize].map(f64::from));
-            let (e1, e2) = (
-                std::array::from_fn::<f64, 3, _>(|k| world[1][k] - world[0][k]),
-                std::array::from_fn::<f64, 3, _>(|k| world[2][k] - world[0][k]),
-            );
+            let n = ori_mesh::face_normal(&self.mesh.positions, self.mesh.triangles[t as usize]);
             let d = self.map.view.frame.d;
-            let facing = (e1[1] * e2[2] - e1[2] * e2[1]) * d[0]
-                + (e1[2] * e2[0] - e1[0] * e2[2]) * d[1]
-                + (e1[0] * e2[1] - e1[1] * e2[0]) * d[2];
+            let facing = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
             if self.single_sided[t as usize] && facing <= 0.0 {
                 continue;
             }

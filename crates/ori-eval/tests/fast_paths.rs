@@ -88,9 +88,9 @@ fn every_lane_width_gives_the_scalar_rule() {
                 let rays = ev.rays(&view, i).unwrap();
                 let [x0, x1, y0, y1] = rays.footprint(view.size);
                 let pixels: Vec<(usize, u32, u32)> = (y0..y1)
-                    .flat_map(|y| (x0..x1).map(move |x| (0, x, y)))
+                    .flat_map(|y| (x0..x1).map(move |x| (x, y)))
                     .enumerate()
-                    .map(|(k, (_, x, y))| (k, x, y))
+                    .map(|(k, (x, y))| (k, x, y))
                     .collect();
                 let scalar: Vec<bool> = pixels
                     .iter()
