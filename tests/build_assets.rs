@@ -280,3 +280,29 @@ fn dump_maps_writes_a_picture_of_every_map() {
     let png = fs::read(folder.join("map-19-depth.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
 }
+
+#[test]
+fn placement_moves_impostors_the_same_way_for_any_thread_count() {
+    // The search on (64 x 64 maps, s0 = 64 views keep it quick): it moves impostors, the
+    // bake follows the placed plan, and the release does not depend on the thread count.
+    let p = Project::new(&["bunny"]);
+    p.config("[place]\nmax_moves = 4\n[bake]\nresolution = 64\n");
+    let build = |j: &str, dir: &str| {
+        let out = p.build(&[
+            "-j",
+            j,
+            "--out",
+            p.path(dir).to_str().unwrap(),
+            "--cache",
+            p.path(&format!("cache-{dir}")).to_str().unwrap(),
+        ]);
+        ok(&out);
+        assert_eq!(ran(&out, "place"), 1, "{}", text(&out));
+        tree(&p.path(dir))
+    };
+    let one = build("1", "one");
+    assert_eq!(one, build("2", "two"));
+    // Turning the search off changes the plan, so the package differs.
+    p.config("[place]\nmax_moves = 0\n[bake]\nresolution = 64\n");
+    assert_ne!(one, build("2", "off"));
+}

@@ -63,7 +63,7 @@ fn the_release_is_byte_identical_however_it_is_built() {
 
     // Fully cached, in a new process: the same folder (and nothing rewritten).
     let cached = a.build(&["-j", "2"]);
-    assert_eq!(ran_all(&cached), [0; 7], "{}", text(&cached));
+    assert_eq!(ran_all(&cached), [0; 8], "{}", text(&cached));
     same_release(&reference, &tree(&a.path("out")), "cached rebuild");
 
     // A clean cache, two threads, another checkout path.
@@ -89,7 +89,7 @@ fn edits_rerun_exactly_the_stages_they_touch() {
     f.set_modified(std::time::SystemTime::now()).unwrap();
     drop(f);
     let out = p.build(&[]);
-    assert_eq!(ran_all(&out), [0; 7], "{}", text(&out));
+    assert_eq!(ran_all(&out), [0; 8], "{}", text(&out));
 
     // A comment changes the file, not the mesh: ingest runs, and packaging records the new
     // source hash; everything between is reused.
@@ -97,7 +97,7 @@ fn edits_rerun_exactly_the_stages_they_touch() {
     obj.extend_from_slice(b"# edited\n");
     fs::write(&bunny, obj).unwrap();
     let out = p.build(&["--explain"]);
-    assert_eq!(ran_all(&out), [1, 0, 0, 0, 0, 0, 1], "{}", text(&out));
+    assert_eq!(ran_all(&out), [1, 0, 0, 0, 0, 0, 0, 1], "{}", text(&out));
 
     // Moving a vertex changes that asset's mesh: all of its jobs, no other asset's.
     let moved =
@@ -106,13 +106,13 @@ fn edits_rerun_exactly_the_stages_they_touch() {
             .replacen("\nv ", "\nv 0.001 0.002 0.003 # was: ", 1);
     fs::write(&bunny, moved).unwrap();
     let out = p.build(&[]);
-    assert_eq!(ran_all(&out), [1; 7], "{}", text(&out));
+    assert_eq!(ran_all(&out), [1; 8], "{}", text(&out));
 
     // A compression parameter: compression and packaging, every asset.
     p.config("[compress]\nquality = \"fast\"\n");
     let out = p.build(&["--explain"]);
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [0, 0, 0, 0, 0, 3, 3], "{t}");
+    assert_eq!(ran_all(&out), [0, 0, 0, 0, 0, 0, 3, 3], "{t}");
     assert!(
         t.contains("[compress] bunny/bunny_npm_lowres.obj: ran in")
             && t.contains("parameters changed: quality: \"high\" -> \"fast\""),
@@ -123,7 +123,7 @@ fn edits_rerun_exactly_the_stages_they_touch() {
     p.config("[compress]\nquality = \"fast\"\n[views]\ncount = 6\n");
     let out = p.build(&["--explain"]);
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [0, 3, 3, 3, 3, 3, 3], "{t}");
+    assert_eq!(ran_all(&out), [0, 3, 3, 3, 3, 3, 3, 3], "{t}");
     assert!(t.contains("parameters changed: count: 20 -> 6"), "{t}");
     let release = tree(&p.path("out"));
     let package = ori_package::read(&release["bunny/bunny_npm_lowres.ori"]).unwrap();
@@ -244,5 +244,5 @@ fn auto_resolution_picks_the_smallest_that_reaches_the_target_and_caches_each_tr
     }
     // Every resolution tried is cached: a second build runs nothing.
     let again = p.build(&[]);
-    assert_eq!(ran_all(&again), [0; 7], "{}", text(&again));
+    assert_eq!(ran_all(&again), [0; 8], "{}", text(&again));
 }

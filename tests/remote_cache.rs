@@ -126,22 +126,22 @@ fn a_builder_with_an_empty_cache_downloads_everything_and_runs_nothing() {
     let p = project(&SAMPLES, &s.url("cache"), "read-write");
     let cold = build_as(&p, "a", &[]);
     ok(&cold);
-    assert_eq!(ran_all(&cold), [3; 7], "{}", text(&cold));
+    assert_eq!(ran_all(&cold), [3; 8], "{}", text(&cold));
     assert!(
-        remote_line(&cold).contains("uploaded 21 entries"),
+        remote_line(&cold).contains("uploaded 24 entries"),
         "{}",
         text(&cold)
     );
     let (blobs, entries) = check_server(&s);
-    assert_eq!(entries, 21);
+    assert_eq!(entries, 24);
     assert!(blobs > 21, "{blobs}");
 
     let warm = build_as(&p, "b", &[]);
     let t = ok(&warm);
-    assert_eq!(ran_all(&warm), [0; 7], "{t}");
+    assert_eq!(ran_all(&warm), [0; 8], "{t}");
     let line = remote_line(&warm);
     assert!(
-        line.contains("downloaded 21 entries") && line.contains("uploaded 0 entries"),
+        line.contains("downloaded 24 entries") && line.contains("uploaded 0 entries"),
         "{line}"
     );
     assert!(remote_warnings(&warm).is_empty(), "{t}");
@@ -154,7 +154,7 @@ fn a_builder_with_an_empty_cache_downloads_everything_and_runs_nothing() {
     // The local cache is complete now: a rebuild asks the server nothing.
     let requests = s.access_log().lines().count();
     let again = build_as(&p, "b", &[]);
-    assert_eq!(ran_all(&again), [0; 7]);
+    assert_eq!(ran_all(&again), [0; 8]);
     assert_eq!(s.access_log().lines().count(), requests);
 }
 
@@ -179,7 +179,7 @@ fn a_server_that_stops_mid_build_leaves_one_warning_and_a_local_build() {
     s.stop();
     let out = child.wait_with_output().unwrap();
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [3; 7], "{t}");
+    assert_eq!(ran_all(&out), [3; 8], "{t}");
     let warnings = remote_warnings(&out);
     assert_eq!(warnings.len(), 1, "{t}");
     assert!(warnings[0].contains("is unavailable"), "{t}");
@@ -191,7 +191,7 @@ fn a_server_that_stops_mid_build_leaves_one_warning_and_a_local_build() {
     // A server gone before the build: the same, and the release is the same as without it.
     let cold = build_as(&p, "b", &[]);
     assert_eq!(remote_warnings(&cold).len(), 1, "{}", text(&cold));
-    assert_eq!(ran_all(&cold), [3; 7]);
+    assert_eq!(ran_all(&cold), [3; 8]);
     same_release(
         &tree(&p.path("out")),
         &tree(&p.path("out-b")),
@@ -209,7 +209,7 @@ fn a_server_that_never_answers_times_out_once() {
     let started = Instant::now();
     let out = p.build(&[]);
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [1; 7], "{t}");
+    assert_eq!(ran_all(&out), [1; 8], "{t}");
     let warnings = remote_warnings(&out);
     assert_eq!(warnings.len(), 1, "{t}");
     assert!(warnings[0].contains("no answer within 1 s"), "{t}");
@@ -242,7 +242,7 @@ fn damaged_bytes_on_the_server_are_a_miss_and_are_repaired() {
     let out = build_as(&p, "b", &[]);
     let t = ok(&out);
     // Only the damaged job ran again; the package is right.
-    assert_eq!(ran_all(&out), [0, 0, 0, 0, 0, 0, 1], "{t}");
+    assert_eq!(ran_all(&out), [0, 0, 0, 0, 0, 0, 0, 1], "{t}");
     let warnings = remote_warnings(&out);
     assert_eq!(warnings.len(), 1, "{t}");
     assert!(warnings[0].contains("is damaged"), "{t}");
@@ -279,11 +279,11 @@ fn concurrent_uploads_of_the_same_results_both_succeed() {
         assert!(remote_warnings(&out).is_empty(), "{t}");
     }
     let (_, entries) = check_server(&s);
-    assert_eq!(entries, 14);
+    assert_eq!(entries, 16);
     same_release(&tree(&p.path("out-a")), &tree(&p.path("out-b")), "a and b");
 
     let c = build_as(&p, "c", &[]);
-    assert_eq!(ran_all(&c), [0; 7], "{}", text(&c));
+    assert_eq!(ran_all(&c), [0; 8], "{}", text(&c));
     same_release(
         &tree(&p.path("out-a")),
         &tree(&p.path("out-c")),
@@ -297,7 +297,7 @@ fn read_only_mode_never_uploads() {
     let p = project(&["box-vertex-colors"], &s.url("cache"), "read-only");
     let out = p.build(&[]);
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [1; 7], "{t}");
+    assert_eq!(ran_all(&out), [1; 8], "{t}");
     assert!(remote_line(&out).contains("(read-only)"), "{t}");
     assert!(
         remote_line(&out).contains("uploaded 0 entries, 0 blobs"),
@@ -381,7 +381,7 @@ fn three_shards_then_assemble_give_the_single_machine_release() {
     // A fresh machine assembles from the remote cache without running any stage.
     let out = assemble("final");
     let t = ok(&out);
-    assert_eq!(ran_all(&out), [0; 7], "{t}");
+    assert_eq!(ran_all(&out), [0; 8], "{t}");
     same_release(&reference, &tree(&p.path("out-final")), "assembled");
     assert!(p.path("out-final/report.json").exists());
 

@@ -55,7 +55,7 @@ fn the_report_opens_in_a_browser_with_every_picture() {
         // three contact sheets and the sphere.
         assert_eq!(a["pictures"].as_array().unwrap().len(), 19, "{a}");
         assert!(a["p_dif"].as_f64().unwrap() > 0.0, "{a}");
-        assert_eq!(a["jobs"].as_array().unwrap().len(), 7);
+        assert_eq!(a["jobs"].as_array().unwrap().len(), 8);
     }
 
     // Every picture loads and no script fails: the page's own check, read from the DOM.

@@ -23,6 +23,10 @@ pub fn shared_models() -> PathBuf {
 /// same stages and artifacts. (Quality at the defaults is tested in ori-select.)
 pub const FAST: &str = "[select]\ns0 = 64\n";
 
+/// Placement off, unless a test's own configuration has a `[place]` table: the search bakes
+/// 340 candidate maps per asset. (`ori-place` tests the search, `build_assets.rs` the stage.)
+pub const NO_PLACEMENT: &str = "[place]\nmax_moves = 0\n";
+
 /// A temporary project: `assets/` with copies of some samples, a `pipeline.toml`, and the
 /// cache and output inside.
 pub struct Project {
@@ -48,9 +52,14 @@ impl Project {
     }
 
     pub fn config(&self, extra: &str) {
+        let place = if extra.contains("[place]") {
+            ""
+        } else {
+            NO_PLACEMENT
+        };
         fs::write(
             self.path("pipeline.toml"),
-            format!("[assets]\nroot = \"assets\"\n[output]\ndir = \"out\"\n[cache]\ndir = \"cache\"\n{FAST}{extra}"),
+            format!("[assets]\nroot = \"assets\"\n[output]\ndir = \"out\"\n[cache]\ndir = \"cache\"\n{FAST}{place}{extra}"),
         )
         .unwrap();
     }
@@ -130,12 +139,12 @@ pub fn asset<'a>(report: &'a Value, name: &str) -> &'a Value {
 }
 
 /// The stages, in pipeline order.
-pub const STAGES: [&str; 7] = [
-    "ingest", "views", "bake", "select", "plt", "compress", "package",
+pub const STAGES: [&str; 8] = [
+    "ingest", "views", "place", "bake", "select", "plt", "compress", "package",
 ];
 
 /// How many jobs of each stage ran, in pipeline order.
-pub fn ran_all(out: &std::process::Output) -> [usize; 7] {
+pub fn ran_all(out: &std::process::Output) -> [usize; 8] {
     STAGES.map(|s| ran(out, s))
 }
 

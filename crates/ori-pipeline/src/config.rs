@@ -181,6 +181,9 @@ pub struct StageParams {
     pub ingest: IngestParams,
     #[serde(default)]
     pub views: ori_views::ViewParams,
+    /// `[place]`: the placement search after view planning.
+    #[serde(default)]
+    pub place: ori_place::PlaceParams,
     #[serde(default)]
     pub bake: ori_bake::BakeParams,
     #[serde(default)]
@@ -236,6 +239,8 @@ struct ConfigFile {
     #[serde(default)]
     views: Option<toml::Table>,
     #[serde(default)]
+    place: Option<toml::Table>,
+    #[serde(default)]
     bake: Option<toml::Table>,
     #[serde(default)]
     select: Option<toml::Table>,
@@ -259,6 +264,8 @@ struct OverrideFile {
     #[serde(default)]
     views: Option<toml::Table>,
     #[serde(default)]
+    place: Option<toml::Table>,
+    #[serde(default)]
     bake: Option<toml::Table>,
     #[serde(default)]
     select: Option<toml::Table>,
@@ -279,7 +286,7 @@ pub(crate) fn glob(pattern: &str) -> Result<GlobMatcher, globset::Error> {
 }
 
 /// The stage sections present in a file (or an override), by name.
-fn stage_tables(sections: [(&str, Option<toml::Table>); 7]) -> toml::Table {
+fn stage_tables(sections: [(&str, Option<toml::Table>); 8]) -> toml::Table {
     let mut t = toml::Table::new();
     for (name, section) in sections {
         if let Some(section) = section {
@@ -316,6 +323,7 @@ fn to_params(mut table: toml::Table) -> Result<StageParams, String> {
     params.auto_resolution = auto;
     params.plt.validate()?;
     params.views.validate().map_err(|e| e.to_string())?;
+    params.place.validate().map_err(|e| e.to_string())?;
     params.bake.validate().map_err(|e| e.to_string())?;
     params.select.validate().map_err(|e| e.to_string())?;
     params.hierarchy.validate()?;
@@ -343,6 +351,7 @@ impl Config {
         let stages = stage_tables([
             ("ingest", file.ingest),
             ("views", file.views),
+            ("place", file.place),
             ("bake", file.bake),
             ("select", file.select),
             ("compress", file.compress),
@@ -357,6 +366,7 @@ impl Config {
             let over = stage_tables([
                 ("ingest", o.ingest),
                 ("views", o.views),
+                ("place", o.place),
                 ("bake", o.bake),
                 ("select", o.select),
                 ("compress", o.compress),

@@ -83,6 +83,7 @@ pub struct AssetJobs {
     pub asset: Asset,
     pub ingest: JobId,
     pub views: JobId,
+    pub place: JobId,
     pub bake: JobId,
     pub select: JobId,
     pub plt: JobId,
@@ -101,6 +102,7 @@ impl AssetJobs {
         let mut all = vec![
             self.ingest,
             self.views,
+            self.place,
             self.bake,
             self.select,
             self.plt,
@@ -128,6 +130,7 @@ pub struct PlannedAsset {
 struct Stages {
     ingest: Arc<dyn ori_graph::Stage>,
     views: Arc<dyn ori_graph::Stage>,
+    place: Arc<dyn ori_graph::Stage>,
     bake: Arc<dyn ori_graph::Stage>,
     select: Arc<dyn ori_graph::Stage>,
     plt: Arc<dyn ori_graph::Stage>,
@@ -142,6 +145,7 @@ impl Stages {
         Stages {
             ingest: Arc::new(ingest::IngestStage),
             views: Arc::new(stages::ViewsStage),
+            place: Arc::new(stages::PlaceStage),
             bake: Arc::new(stages::BakeStage),
             select: Arc::new(stages::SelectStage),
             plt: Arc::new(stages::PltStage),
@@ -163,6 +167,7 @@ fn output(job: JobId, name: &str) -> Input {
 /// The jobs from a mesh to a package (`compress` and `package` are `None` when measuring).
 struct Chain {
     views: JobId,
+    place: JobId,
     bake: JobId,
     select: JobId,
     plt: JobId,
@@ -172,7 +177,7 @@ struct Chain {
 
 impl Chain {
     fn jobs(&self) -> Vec<JobId> {
-        let mut jobs = vec![self.views, self.bake, self.select, self.plt];
+        let mut jobs = vec![self.views, self.place, self.bake, self.select, self.plt];
         jobs.extend(self.compress);
         jobs.extend(self.package);
         jobs
@@ -202,12 +207,20 @@ fn plan_chain(
         to_json(&params.views),
         vec![mesh_input()],
     ));
+    let place = graph.add(job(
+        &stages.place,
+        place_params(params),
+        vec![
+            mesh_input(),
+            (stages::VIEWS.into(), output(views, stages::VIEWS)),
+        ],
+    ));
     let bake = graph.add(job(
         &stages.bake,
         to_json(&params.bake),
         vec![
             mesh_input(),
-            (stages::VIEWS.into(), output(views, stages::VIEWS)),
+            (stages::VIEWS.into(), output(place, stages::VIEWS)),
         ],
     ));
     let select = graph.add(job(
@@ -226,6 +239,7 @@ fn plan_chain(
     if planned.measure_only {
         return Chain {
             views,
+            place,
             bake,
             select,
             plt,
@@ -261,6 +275,7 @@ fn plan_chain(
     ));
     Chain {
         views,
+        place,
         bake,
         select,
         plt,
@@ -357,6 +372,7 @@ pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
             asset: asset.clone(),
             ingest,
             views: root.views,
+            place: root.place,
             bake: root.bake,
             select: root.select,
             plt: root.plt,
@@ -377,6 +393,17 @@ fn select_params(params: &config::StageParams) -> serde_json::Value {
         json["device"] = device.as_str().into();
     }
     json
+}
+
+/// The place job's parameters: its own, and those of the bake and selection it measures
+/// with (its result depends on them).
+fn place_params(params: &config::StageParams) -> serde_json::Value {
+    serde_json::json!({
+        "place": to_json(&params.place),
+        "bake": to_json(&params.bake),
+        "select": to_json(&params.select),
+        "item_buffer_size": params.views.item_buffer_size,
+    })
 }
 
 /// The parameters a package records: every stage's, and whether the resolution was chosen

@@ -44,6 +44,48 @@ impl Stage for ViewsStage {
     }
 }
 
+/// Moves the planned directions where the evaluator shows they are needed (`[place]`, see
+/// `ori_place`); measured with the `[bake]` and `[select]` parameters of the stages after it.
+pub struct PlaceStage;
+
+/// The place job's parameters (built by `place_params` in `lib.rs`).
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PlaceJobParams {
+    place: ori_place::PlaceParams,
+    bake: BakeParams,
+    select: ori_select::SelectParams,
+    item_buffer_size: u32,
+}
+
+impl Stage for PlaceStage {
+    fn name(&self) -> &'static str {
+        "place"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+        let params: PlaceJobParams = params(ctx)?;
+        let mesh = mesh(ctx)?;
+        let plan = ViewPlan::decode(&ctx.input(VIEWS)?)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        let measure = ori_place::Measure {
+            bake: &params.bake,
+            eval: &params.select.eval_params(),
+            closest: params.select.rule.m() as usize,
+            goal_pixels: params.select.goal_pixels(),
+            entropy_size: params.item_buffer_size,
+        };
+        let placed = ori_place::place(&mesh, &plan, &measure, &params.place)
+            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
+        ctx.output(VIEWS, placed.plan.encode());
+        Ok(())
+    }
+}
+
 /// Bakes one relief map per planned direction (`[bake]` parameters).
 pub struct BakeStage;
 

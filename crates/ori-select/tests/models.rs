@@ -9,21 +9,44 @@ use ori_select::{Rule, SelectParams, Selection, select};
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
 
+fn load(relative: &str) -> Mesh {
+    let path = format!("{MODELS}/{relative}");
+    ori_mesh::load_file(path.as_ref(), &Default::default())
+        .unwrap_or_else(|e| panic!("{path}: {e}"))
+        .mesh
+}
+
 /// The model, planned (n = 20, perturbed) and baked (256 x 256) with the defaults.
 fn prepared(relative: &str) -> (Mesh, ReliefSet) {
-    let path = format!("{MODELS}/{relative}");
-    let mesh = ori_mesh::load_file(path.as_ref(), &Default::default())
-        .unwrap_or_else(|e| panic!("{path}: {e}"))
-        .mesh;
+    let mesh = load(relative);
     let plan = ori_views::plan_views(&mesh, &Default::default()).expect("plan");
     let set = ori_bake::bake(&mesh, &plan.directions, &BakeParams::default()).expect("bake");
     (mesh, set)
 }
 
+/// The model through every stage before selection at the pipeline's defaults: planned,
+/// placed (`ori_place`, measured with the default selection) and baked. Also returns the
+/// placement's worst view (pixels missed with all M closest impostors).
+fn placed(relative: &str) -> (Mesh, ReliefSet, u32) {
+    let mesh = load(relative);
+    let plan = ori_views::plan_views(&mesh, &Default::default()).expect("plan");
+    let select = SelectParams::default();
+    let measure = ori_place::Measure {
+        bake: &BakeParams::default(),
+        eval: &select.eval_params(),
+        closest: select.rule.m() as usize,
+        goal_pixels: select.goal_pixels(),
+        entropy_size: ori_views::ViewParams::default().item_buffer_size,
+    };
+    let placed = ori_place::place(&mesh, &plan, &measure, &Default::default()).expect("place");
+    let set = ori_bake::bake(&mesh, &placed.plan.directions, &BakeParams::default()).expect("bake");
+    (mesh, set, placed.worst_after)
+}
+
 /// Selection with the defaults (best:6, goal 0.2%, s0 = 256, 16 + 7 steps, wall threshold
 /// 0.25) held to average and maximum coverage error and impostors per view.
 fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
-    let (mesh, set) = prepared(relative);
+    let (mesh, set, worst) = placed(relative);
     let started = Instant::now();
     let sel = select(&mesh, &set, &SelectParams::default()).expect("select");
     let s = sel.stats();
@@ -52,32 +75,39 @@ fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
         "{:.2} impostors per view",
         s.avg_impostors
     );
+    // The placement measured what the selection finds: no view is worse than the worst the
+    // search saw, or than the goal where it stopped within it.
+    let goal = SelectParams::default().goal_pixels();
+    assert!(
+        sel.missed().into_iter().max().unwrap() <= worst.max(goal),
+        "placement saw {worst} pixels at worst"
+    );
     sel
 }
 
 #[test]
 fn bunny_quality() {
-    // Measured 0.151 / 1.573 % and 2.65, PLT 64: the paper's average (0.17 %) and impostors
-    // per view (2.9) are met. The maximum is not: through the holes in the scan's base a
-    // viewer from below sees, past the culled inside of the shell, parts of the bunny behind
-    // it, which no impostor sees (see the crate documentation). Held with a small margin.
-    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.17, 1.65, 2.9);
+    // The paper's armadillo figures are 0.17 / 0.37 %, 2.9 impostors per view and PLT 270
+    // with 256 x 256 maps. Measured with placement: 0.101 / 0.200 %, 2.33, PLT 500 (without
+    // it the worst view, looking up through the holes in the scan's base, lost 1.573 %).
+    // Held with about 10 % margin.
+    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.11, 0.22, 2.55);
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 60.0, "PLT {plt}");
+    assert!(plt.pixels() >= 450.0, "PLT {plt}");
 }
 
 #[test]
 fn armadillo_quality() {
-    // The paper's armadillo figures (0.17 / 0.37 %, 2.9 impostors per view, PLT 270 with
-    // 256 x 256 maps); measured 0.130 / 0.362 %, 2.72, PLT 277.
+    // Measured with placement: 0.118 / 0.200 %, 2.65, PLT 500 (without it 0.130 / 0.362 %,
+    // 2.72, PLT 277). Held with about 10 % margin.
     let sel = holds(
         "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        0.17,
-        0.37,
+        0.13,
+        0.22,
         2.9,
     );
     let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 270.0, "PLT {plt}");
+    assert!(plt.pixels() >= 450.0, "PLT {plt}");
 }
 
 #[test]
