@@ -32,6 +32,14 @@ pub enum Bench {
         #[arg(long, default_value_t = 3)]
         runs: usize,
     },
+    /// Time the placement search at the defaults (`[place]`, measured with the default bake
+    /// and selection) on real models of growing size, with the default thread pool, and what
+    /// it did: moves, and the worst view's missed pixels before and after.
+    Place {
+        /// Timed runs per model (the median is reported).
+        #[arg(long, default_value_t = 1)]
+        runs: usize,
+    },
     /// A cold build of every model in ../shared/models, then the rebuild after one model's
     /// geometry is edited, against that model's own cold build.
     Release,
@@ -59,6 +67,7 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::NoopRebuild { assets, runs } => noop_rebuild(assets, runs),
         Bench::Bake { runs } => bake(runs),
         Bench::Select { runs } => select(runs),
+        Bench::Place { runs } => place(runs),
         Bench::Release => release(),
         Bench::Remote { baseline } => crate::bench_remote::run(baseline),
         Bench::Render { frames, size } => render(frames, size),
@@ -214,6 +223,56 @@ fn bake(runs: usize) -> Result<(), String> {
             v.as_secs_f64(),
             b.as_secs_f64(),
             (v + b).as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+fn place(runs: usize) -> Result<(), String> {
+    let models = [
+        "stanford/bunny/bunny_npm_lowres.obj",
+        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
+        "stanford/bunny/stanford-bunny.obj",
+        "stanford/dragon/dragon_res2_binary.ply",
+    ];
+    println!(
+        "{:<36} {:>7} {:>10} {:>6} {:>14}",
+        "model", "faces", "place s", "moves", "worst px"
+    );
+    let select = ori_select::SelectParams::default();
+    let bake = ori_bake::BakeParams::default();
+    let measure = ori_place::Measure {
+        bake: &bake,
+        eval: &select.eval_params(),
+        closest: select.rule.m() as usize,
+        goal_pixels: select.goal_pixels(),
+        entropy_size: ori_views::ViewParams::default().item_buffer_size,
+    };
+    for rel in models {
+        let path = shared_models().join(rel);
+        let mesh = ori_mesh::load_file(&path, &Default::default())
+            .map_err(|e| e.to_string())?
+            .mesh;
+        let plan = ori_views::plan_views(&mesh, &Default::default()).map_err(|e| e.to_string())?;
+        let mut times = Vec::new();
+        let mut placed = None;
+        for _ in 0..runs.max(1) {
+            let t = Instant::now();
+            placed = Some(
+                ori_place::place(&mesh, &plan, &measure, &Default::default())
+                    .map_err(|e| e.to_string())?,
+            );
+            times.push(t.elapsed());
+        }
+        let placed = placed.expect("one run at least");
+        let name = Path::new(rel).file_name().unwrap().to_string_lossy();
+        println!(
+            "{:<36} {:>7} {:>10.2} {:>6} {:>14}",
+            name,
+            mesh.triangles.len(),
+            median(times).as_secs_f64(),
+            placed.moves,
+            format!("{} -> {}", placed.worst_before, placed.worst_after)
         );
     }
     Ok(())
