@@ -180,13 +180,16 @@ fn median(mut times: Vec<Duration>) -> Duration {
     times[times.len() / 2]
 }
 
+/// Real models of growing size (3.7k to 203k faces) under ../shared/models, for the timing
+/// benchmarks.
+const GROWING_MODELS: [&str; 4] = [
+    "stanford/bunny/bunny_npm_lowres.obj",
+    "stanford/armadillo/armadillo_odedstein_remeshed.obj",
+    "stanford/bunny/stanford-bunny.obj",
+    "stanford/dragon/dragon_res2_binary.ply",
+];
+
 fn bake(runs: usize) -> Result<(), String> {
-    let models = [
-        "stanford/bunny/bunny_npm_lowres.obj",
-        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        "stanford/bunny/stanford-bunny.obj",
-        "stanford/dragon/dragon_res2_binary.ply",
-    ];
     let views = ori_views::ViewParams::default();
     let bake = ori_bake::BakeParams::default();
     println!(
@@ -202,7 +205,7 @@ fn bake(runs: usize) -> Result<(), String> {
         "{:<52} {:>8} {:>9} {:>9} {:>9}",
         "model", "faces", "views s", "bake s", "total s"
     );
-    for rel in models {
+    for rel in GROWING_MODELS {
         let path = shared_models().join(rel);
         let mesh = ori_mesh::load_file(&path, &ori_mesh::LoadOptions::default())
             .map_err(|e| e.to_string())?
@@ -229,12 +232,6 @@ fn bake(runs: usize) -> Result<(), String> {
 }
 
 fn place(runs: usize) -> Result<(), String> {
-    let models = [
-        "stanford/bunny/bunny_npm_lowres.obj",
-        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        "stanford/bunny/stanford-bunny.obj",
-        "stanford/dragon/dragon_res2_binary.ply",
-    ];
     println!(
         "{:<36} {:>7} {:>10} {:>6} {:>14}",
         "model", "faces", "place s", "moves", "worst px"
@@ -248,7 +245,7 @@ fn place(runs: usize) -> Result<(), String> {
         goal_pixels: select.goal_pixels(),
         entropy_size: ori_views::ViewParams::default().item_buffer_size,
     };
-    for rel in models {
+    for rel in GROWING_MODELS {
         let path = shared_models().join(rel);
         let mesh = ori_mesh::load_file(&path, &Default::default())
             .map_err(|e| e.to_string())?
@@ -279,17 +276,11 @@ fn place(runs: usize) -> Result<(), String> {
 }
 
 fn select(runs: usize) -> Result<(), String> {
-    let models = [
-        "stanford/bunny/bunny_npm_lowres.obj",
-        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        "stanford/bunny/stanford-bunny.obj",
-        "stanford/dragon/dragon_res2_binary.ply",
-    ];
     println!(
         "{:<36} {:>7} {:>10} {:>10} {:>10}",
         "model", "faces", "select s", "plt s", "total s"
     );
-    for rel in models {
+    for rel in GROWING_MODELS {
         let path = shared_models().join(rel);
         let mesh = ori_mesh::load_file(&path, &Default::default())
             .map_err(|e| e.to_string())?

@@ -166,8 +166,7 @@ pub fn place(
         masks: vec![None; evaluation.len() * candidates.len()],
     };
 
-    let (step_sin, step_cos) = ori_math::sin_cos(params.step_deg * (std::f64::consts::PI / 180.0));
-    debug_assert!(step_sin > 0.0);
+    let step_cos = ori_math::sin_cos(params.step_deg * (std::f64::consts::PI / 180.0)).1;
     let mut chosen: Vec<usize> = (0..plan.directions.len()).collect();
     search.fill(std::slice::from_ref(&chosen));
     let mut errors = search.errors(&chosen);
