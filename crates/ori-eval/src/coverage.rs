@@ -5,7 +5,7 @@
 //! A test holds the two equal.
 
 use ori_mesh::Mesh;
-use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, faces_away, fmax, fmin};
+use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, faces_away, fmax, fmin, row_span};
 
 use crate::Mask;
 use crate::reference::AlphaCut;
@@ -251,10 +251,14 @@ fn draw(
         (p2, a, bias(p2, a)),
         (a, p1, bias(a, p1)),
     ];
+    let lines = edges.map(|(f, to, _)| (f, to));
     for y in y0..=y1 {
         let py = y as f64 + 0.5;
         let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
-        for x in x0..=x1 {
+        let Some((xa, xb)) = row_span(lines, rows, x0, x1) else {
+            continue;
+        };
+        for x in xa..=xb {
             let i = y * n + x;
             if mask.get(i) {
                 continue;

@@ -354,10 +354,14 @@ fn draw(
     // Edge functions, with the row term hoisted: the same operations in the same order as
     // `edge(from, to, p)`, so the values are bit-identical to a direct evaluation.
     let edges = [(p1, p2, bias0), (p2, a, bias1), (a, p1, bias2)];
+    let lines = edges.map(|(f, to, _)| ([f[0], f[1]], [to[0], to[1]]));
     for y in y0..=y1 {
         let py = y as f64 + 0.5;
         let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
-        for x in x0..=x1 {
+        let Some((xa, xb)) = row_span(lines, rows, x0, x1) else {
+            continue;
+        };
+        for x in xa..=xb {
             let px = x as f64 + 0.5;
             let w = std::array::from_fn::<f64, 3, _>(|k| {
                 let (f, to, _) = edges[k];
@@ -389,6 +393,48 @@ fn draw(
             out.bary[i] = bary;
         }
     }
+}
+
+/// The pixels of `x0..=x1` in one row whose centres can pass the three edge tests of a
+/// triangle, or `None` when none can. `edges` are (from, to) in screen space and `rows` their
+/// row terms `(to.x - from.x) * (py - from.y)`. The span is conservative (a pixel and a relative
+/// margin beyond the rounded bounds) and the exact tests still decide every pixel inside it, so
+/// it changes no result; it only makes a thin triangle cost its area rather than its bounding
+/// box (a fan of a many-cornered polygon is thousands of long slivers).
+pub fn row_span(
+    edges: [([f64; 2], [f64; 2]); 3],
+    rows: [f64; 3],
+    x0: usize,
+    x1: usize,
+) -> Option<(usize, usize)> {
+    let (mut lo, mut hi) = (x0 as f64, x1 as f64);
+    for ((from, to), row) in edges.into_iter().zip(rows) {
+        let dy = to[1] - from[1];
+        if dy == 0.0 {
+            // The edge function is `row` along the whole row.
+            if row < 0.0 {
+                return None;
+            }
+            continue;
+        }
+        // w(px) = row - dy * (px - from.x) >= 0, with px = x + 0.5.
+        let bound = from[0] + row / dy - 0.5;
+        if !bound.is_finite() {
+            continue;
+        }
+        let margin = 1.0 + 1e-7 * (from[0].abs() + (row / dy).abs());
+        if dy > 0.0 {
+            hi = hi.min(bound + margin);
+        } else {
+            lo = lo.max(bound - margin);
+        }
+    }
+    if lo > hi || hi < 0.0 {
+        return None;
+    }
+    let first = ceil_nonneg(lo).max(x0);
+    let last = (hi as usize).min(x1);
+    (first <= last).then_some((first, last))
 }
 
 /// Screen-space slack of the f32 pre-test, far above f32 rounding at any image size we use.
