@@ -202,24 +202,54 @@ fn verify(dir: &std::path::Path) -> ExitCode {
     }
 }
 
-/// The output and assets folders a configuration names, unless given.
+/// The output and assets folders a configuration names, unless given, and how the report
+/// may read the source models (the build's rules).
 fn folders(
     config: &std::path::Path,
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
-) -> Result<(PathBuf, PathBuf), String> {
+) -> Result<(PathBuf, PathBuf, ori_report::SourceAccess), String> {
     let c = ori_pipeline::Config::load(config).map_err(|e| e.to_string())?;
+    let assets = assets.unwrap_or_else(|| c.resolve(&c.assets.root));
+    let rules = ori_graph::SourceRules::confined(&assets, c.limits.max_file_bytes())
+        .map_err(|e| format!("assets folder {}: {e}", assets.display()))?;
+    let access = ori_report::SourceAccess {
+        rules,
+        limits: c.limits.mesh(),
+    };
     Ok((
         out.unwrap_or_else(|| c.resolve(&c.output.dir)),
-        assets.unwrap_or_else(|| c.resolve(&c.assets.root)),
+        assets,
+        access,
     ))
 }
 
-/// Exit status 0: report written; 1: it could not be.
+/// Write the HTML report; print its path and every package that failed its check. `Err`
+/// when it could not be written or a package is invalid.
+fn write_report(
+    config: &std::path::Path,
+    out: Option<PathBuf>,
+    assets: Option<PathBuf>,
+) -> Result<PathBuf, String> {
+    let (out, assets, access) = folders(config, out, assets)?;
+    let written = ori_report::write_report(&out, &assets, &access)?;
+    if written.invalid_packages.is_empty() {
+        return Ok(written.index);
+    }
+    for p in &written.invalid_packages {
+        eprintln!("invalid package: {p}");
+    }
+    Err(format!(
+        "{} package(s) in {} failed their check (report written without their pictures: {})",
+        written.invalid_packages.len(),
+        out.display(),
+        written.index.display()
+    ))
+}
+
+/// Exit status 0: report written; 1: it could not be, or a package in the folder is invalid.
 fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf>) -> ExitCode {
-    let written = folders(config, dir, assets)
-        .and_then(|(out, assets)| ori_report::write_report(&out, &assets));
-    match written {
+    match write_report(config, dir, assets) {
         Ok(index) => {
             println!("report: {}", index.display());
             ExitCode::SUCCESS
@@ -231,15 +261,27 @@ fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf
     }
 }
 
-/// `build-assets`, or `assemble` (no stage runs). Exit status 0: built; 1: some job failed
-/// or (assemble) some asset is not cached; 2: the configuration or command line is wrong.
+/// `-j N` clamped to the cores this machine has: more threads than cores never speed up the
+/// stages (they are CPU-bound) and thousands of them cost memory and time.
+fn worker_threads(asked: usize) -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if asked > cores {
+        eprintln!("warning: -j {asked} is more than this machine's {cores} core(s); using {cores}");
+        return cores;
+    }
+    asked
+}
+
+/// `build-assets`, or `assemble` (no stage runs). Exit status 0: built; 1: some job failed,
+/// an output could not be written or (assemble) some asset is not cached; 2: the
+/// configuration or command line is wrong.
 fn build(args: BuildArgs, assemble: bool) -> ExitCode {
     let progress = if args.quiet {
         ProgressMode::Quiet
     } else {
         ProgressMode::detect()
     };
-    let write_report = !(args.no_report || args.dry_run || args.shard.is_some());
+    let want_report = !(args.no_report || args.dry_run || args.shard.is_some());
     let (config_path, out_arg, assets_arg) =
         (args.config.clone(), args.out.clone(), args.assets.clone());
     let gpu_select = match args.backend {
@@ -261,7 +303,7 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
         assets: args.assets,
         out: args.out,
         cache: args.cache,
-        threads: args.jobs,
+        threads: worker_threads(args.jobs),
         explain: args.explain,
         dry_run: args.dry_run,
         progress,
@@ -272,12 +314,13 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
     };
     match build_assets(&options) {
         Ok(summary) => {
+            for w in &summary.warnings {
+                eprintln!("warning: {w}");
+            }
             println!("{}", format_summary(&summary));
-            if write_report {
+            if want_report {
                 let started = std::time::Instant::now();
-                match folders(&config_path, out_arg, assets_arg)
-                    .and_then(|(out, assets)| ori_report::write_report(&out, &assets))
-                {
+                match write_report(&config_path, out_arg, assets_arg) {
                     Ok(index) => println!(
                         "html report: {} ({:.2} s)",
                         index.display(),
@@ -296,7 +339,10 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
                 ExitCode::SUCCESS
             }
         }
-        Err(e @ ori_pipeline::PipelineError::NotCached(_)) => {
+        Err(
+            e @ (ori_pipeline::PipelineError::NotCached(_)
+            | ori_pipeline::PipelineError::Output { .. }),
+        ) => {
             eprintln!("error: {e}");
             ExitCode::from(1)
         }

@@ -151,29 +151,26 @@ impl Cache {
             size: bytes.len() as u64,
         };
         if !self.blob_present(&blob) {
-            write_atomic(&self.blob_path(&blob.hash), bytes)?;
+            write_entry(&self.blob_path(&blob.hash), bytes)?;
         }
         Ok(blob)
     }
 
     /// Store bytes already verified to hash to `hash` (downloaded from a remote cache).
     pub(crate) fn store_verified_blob(&self, hash: &ContentHash, bytes: &[u8]) -> io::Result<()> {
-        write_atomic(&self.blob_path(hash), bytes)
+        write_entry(&self.blob_path(hash), bytes)
     }
 
     /// Whether a blob of the right size exists (a cheap check; contents are verified on read).
     pub fn blob_present(&self, blob: &BlobRef) -> bool {
-        fs::metadata(self.blob_path(&blob.hash)).is_ok_and(|m| m.len() == blob.size)
+        fs::symlink_metadata(self.blob_path(&blob.hash))
+            .is_ok_and(|m| m.is_file() && m.len() == blob.size)
     }
 
     /// Read a blob and verify its hash. A corrupt blob is deleted and reported.
     pub fn read_blob(&self, blob: &BlobRef) -> Result<Vec<u8>, ReadError> {
         let path = self.blob_path(&blob.hash);
-        let bytes = match fs::read(&path) {
-            Ok(b) => b,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => return Err(ReadError::Missing),
-            Err(error) => return Err(ReadError::Io { path, error }),
-        };
+        let bytes = read_entry(&path)?;
         let actual = ContentHash::of(&bytes);
         if actual != blob.hash {
             let _ = fs::remove_file(&path);
@@ -185,7 +182,7 @@ impl Cache {
 
     /// Remove a blob whose size is wrong so it is rewritten.
     pub fn discard_blob(&self, hash: &ContentHash) {
-        let _ = fs::remove_file(self.blob_path(hash));
+        let _ = remove_any(&self.blob_path(hash));
     }
 
     /// The action entry for `key`, verified.
@@ -232,20 +229,59 @@ pub(crate) fn decode_checked_json<T: for<'de> Deserialize<'de>>(bytes: &[u8]) ->
 }
 
 fn write_checked_json<T: Serialize>(path: &Path, value: &T) -> io::Result<()> {
-    write_atomic(path, &encode_checked_json(value)?)
+    write_entry(path, &encode_checked_json(value)?)
+}
+
+/// Write a cache file atomically. Whatever else stands in its place (a folder, a link, a
+/// file where its folder should be) is damage: it is removed first. Errors name the file.
+fn write_entry(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let named = |e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", path.display()));
+    if let Some(dir) = path.parent()
+        && fs::symlink_metadata(dir).is_ok_and(|m| !m.is_dir())
+    {
+        fs::remove_file(dir).map_err(named)?;
+    }
+    if fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
+        remove_any(path).map_err(named)?;
+    }
+    write_atomic(path, bytes).map_err(named)
+}
+
+fn remove_any(path: &Path) -> io::Result<()> {
+    match fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => fs::remove_dir_all(path),
+        Ok(_) => fs::remove_file(path),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
+/// Read a cache file: absent is [`ReadError::Missing`]; anything but a regular file in its
+/// place is damage, removed and reported as [`ReadError::Corrupt`].
+fn read_entry(path: &Path) -> Result<Vec<u8>, ReadError> {
+    match fs::symlink_metadata(path) {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Err(ReadError::Missing),
+        Ok(m) if !m.is_file() => {
+            let _ = remove_any(path);
+            return Err(ReadError::Corrupt {
+                path: path.to_path_buf(),
+                reason: "not a regular file".into(),
+            });
+        }
+        _ => {}
+    }
+    match fs::read(path) {
+        Ok(t) => Ok(t),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Err(ReadError::Missing),
+        Err(error) => Err(ReadError::Io {
+            path: path.to_path_buf(),
+            error,
+        }),
+    }
 }
 
 fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, ReadError> {
-    let bytes = match fs::read(path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Err(ReadError::Missing),
-        Err(error) => {
-            return Err(ReadError::Io {
-                path: path.to_path_buf(),
-                error,
-            });
-        }
-    };
+    let bytes = read_entry(path)?;
     decode_checked_json(&bytes).map_err(|reason| {
         let _ = fs::remove_file(path);
         ReadError::Corrupt {

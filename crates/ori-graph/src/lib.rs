@@ -24,7 +24,7 @@ pub use remote::{
     HttpStore, Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore,
 };
 pub use run::{
-    Build, JobContext, JobResult, Observer, Outcome, RunOptions, RunReason, Silent, StageSummary,
-    run,
+    Build, JobContext, JobResult, MAX_THREADS, Observer, Outcome, RunOptions, RunReason, Silent,
+    StageSummary, run,
 };
-pub use sources::{RACY_WINDOW, SourceHasher};
+pub use sources::{DEFAULT_MAX_FILE_BYTES, RACY_WINDOW, SourceHasher, SourceRules};

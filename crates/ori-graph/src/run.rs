@@ -13,7 +13,7 @@ use crate::cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadE
 use crate::hash::{ContentHash, canonical_json, job_key};
 use crate::job::{Graph, Input, JobId, JobSpec, StageError};
 use crate::remote::RemoteCache;
-use crate::sources::SourceHasher;
+use crate::sources::{SourceHasher, SourceRules};
 
 /// How to run a graph.
 #[derive(Clone, Debug, Default)]
@@ -27,7 +27,12 @@ pub struct RunOptions {
     pub remote: Option<Arc<RemoteCache>>,
     /// Run no stage: a job whose result is in neither cache is [`Outcome::NotCached`].
     pub cached_only: bool,
+    /// What every source file and every file a stage discovers must be to be read.
+    pub sources: SourceRules,
 }
+
+/// The most worker threads a run starts, whatever it is asked for.
+pub const MAX_THREADS: usize = 256;
 
 /// Why a job had to run.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -167,15 +172,22 @@ pub fn run<'g>(
     let exec = Exec {
         graph,
         cache: cache.clone(),
-        sources: SourceHasher::new(cache.stat_memo_path()),
+        sources: SourceHasher::new(cache.stat_memo_path(), options.sources.clone()),
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
         cached_only: options.cached_only,
         remote: options.remote.clone(),
         observer,
     };
+    if exec.sources.dropped() > 0 {
+        observer.note(&format!(
+            "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
+            cache.stat_memo_path().display(),
+            exec.sources.dropped()
+        ));
+    }
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(options.threads)
+        .num_threads(options.threads.min(MAX_THREADS))
         .build()
         .expect("cannot start worker threads");
     pool.scope(|scope| {
@@ -186,7 +198,9 @@ pub fn run<'g>(
             }
         }
     });
-    if let Err(e) = exec.sources.save() {
+    if !options.dry_run
+        && let Err(e) = exec.sources.save()
+    {
         observer.note(&format!(
             "warning: cannot save the stat memo {}: {e}",
             cache.stat_memo_path().display()
@@ -747,9 +761,15 @@ impl JobContext<'_> {
         let expected = self.inputs[position].1;
         match &job.inputs[position].1 {
             Input::Source(path) => {
-                let bytes = std::fs::read(path)
+                let bytes = self
+                    .exec
+                    .sources
+                    .read(path)
                     .map_err(|e| StageError(format!("{}: cannot read: {e}", path.display())))?;
                 if ContentHash::of(&bytes) != expected {
+                    // Whether the memo was wrong or the file really changed, the next build
+                    // must read it.
+                    self.exec.sources.forget(path);
                     return Err(StageError(format!(
                         "{}: the file changed during the build; run the build again",
                         path.display()
@@ -762,13 +782,14 @@ impl JobContext<'_> {
     }
 
     /// Read a file the stage discovered it needs (a glTF buffer, a texture), relative to the
-    /// folder of the job's source file. The read is recorded: if the file later changes,
-    /// appears or disappears, the job runs again.
+    /// folder of the job's source file, under the run's [`SourceRules`] (inside the root, a
+    /// regular file, within the size limit; the error names the rule broken). The read is
+    /// recorded: if the file later changes, appears or disappears, the job runs again.
     pub fn read_discovered(&mut self, relative: &str) -> io::Result<Vec<u8>> {
         let dir = self.source_dir.as_ref().ok_or_else(|| {
             io::Error::new(io::ErrorKind::NotFound, "this job has no source folder")
         })?;
-        let result = std::fs::read(dir.join(relative));
+        let result = self.exec.sources.read(&dir.join(relative));
         let hash = match &result {
             Ok(bytes) => Some(ContentHash::of(bytes)),
             Err(e) if e.kind() == io::ErrorKind::NotFound => None,

@@ -1,14 +1,22 @@
-//! Content hashes of source files, with a stat memo so unchanged files are not re-read.
+//! Source files: where they may come from, their content hashes, and a stat memo so that
+//! unchanged files are not re-read.
 //!
-//! A memo entry maps an absolute path to (size, mtime, ctime, inode, hash). It is trusted only
-//! when all four stat fields match. A file modified within the filesystem's timestamp
+//! Every source file and every file a stage discovers is untrusted: [`SourceRules`] say it
+//! must resolve, after symbolic links, inside the asset root, be a regular file (not a FIFO, a
+//! device or a folder) and be no larger than a limit, and reads never take more than that
+//! limit, whatever the file claims or grows to.
+//!
+//! A memo entry maps a path to (size, mtime, ctime, inode, hash) and is sealed with a keyed
+//! hash of all of them, the path included, so an entry that was damaged or moved to another
+//! path is detected, reported once and dropped (the file is simply read again). It is trusted
+//! only when all four stat fields match. A file modified within the filesystem's timestamp
 //! granularity of the moment it was hashed could keep its mtime, so entries younger than
 //! [`RACY_WINDOW`] at save time are not memoised (git's "racily clean" rule): such a file is
 //! simply re-hashed next time. A changed file is therefore always re-hashed.
 
 use std::collections::BTreeMap;
 use std::fs;
-use std::io;
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -20,6 +28,114 @@ use crate::hash::ContentHash;
 
 /// Files modified this recently when the memo is saved are left out of it.
 pub const RACY_WINDOW: Duration = Duration::from_secs(2);
+
+/// The default largest source file: a model or a file it references.
+pub const DEFAULT_MAX_FILE_BYTES: u64 = 512 << 20;
+
+/// What a source file must be to be read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SourceRules {
+    /// The folder every source must resolve into (canonical); `None` confines nothing.
+    root: Option<PathBuf>,
+    /// The largest file read, in bytes.
+    pub max_file_bytes: u64,
+}
+
+impl Default for SourceRules {
+    fn default() -> Self {
+        SourceRules {
+            root: None,
+            max_file_bytes: DEFAULT_MAX_FILE_BYTES,
+        }
+    }
+}
+
+impl SourceRules {
+    /// Sources confined to `root` (which must exist) and at most `max_file_bytes` each.
+    pub fn confined(root: &Path, max_file_bytes: u64) -> io::Result<SourceRules> {
+        Ok(SourceRules {
+            root: Some(fs::canonicalize(root)?),
+            max_file_bytes,
+        })
+    }
+
+    /// The canonical root, if confined.
+    pub fn root(&self) -> Option<&Path> {
+        self.root.as_deref()
+    }
+
+    /// Check `path` against the rules: `Ok(None)` when there is no such file, else the file's
+    /// metadata. The error says which rule it broke, without naming where it leads.
+    fn check(&self, path: &Path) -> io::Result<Option<fs::Metadata>> {
+        let resolved = match fs::canonicalize(path) {
+            Ok(p) => p,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        if let Some(root) = &self.root
+            && !resolved.starts_with(root)
+        {
+            return Err(refused(
+                "it resolves outside the asset root ([assets] root); \
+                 models may only reference files inside it",
+            ));
+        }
+        let meta = fs::metadata(&resolved)?;
+        if !meta.is_file() {
+            return Err(refused("it is not a regular file"));
+        }
+        if meta.len() > self.max_file_bytes {
+            return Err(refused(&format!(
+                "it is {} bytes, more than the limit of {} ([limits] max_file_mb)",
+                meta.len(),
+                self.max_file_bytes
+            )));
+        }
+        Ok(Some(meta))
+    }
+
+    /// Read a file that passes [`SourceRules::check`]: opened without blocking (a FIFO
+    /// swapped in meanwhile is refused, not waited on) and never more than the limit.
+    pub fn read(&self, path: &Path) -> io::Result<Vec<u8>> {
+        if self.check(path)?.is_none() {
+            return Err(io::Error::new(io::ErrorKind::NotFound, "no such file"));
+        }
+        let file = open_nonblocking(path)?;
+        if !file.metadata()?.is_file() {
+            return Err(refused("it is not a regular file"));
+        }
+        let mut bytes = Vec::new();
+        file.take(self.max_file_bytes + 1).read_to_end(&mut bytes)?;
+        if bytes.len() as u64 > self.max_file_bytes {
+            return Err(refused(&format!(
+                "it grew past the limit of {} bytes ([limits] max_file_mb) while being read",
+                self.max_file_bytes
+            )));
+        }
+        Ok(bytes)
+    }
+}
+
+/// A rule a file broke, as an I/O error (never `NotFound`, which means "absent").
+fn refused(why: &str) -> io::Error {
+    io::Error::new(io::ErrorKind::PermissionDenied, format!("refused: {why}"))
+}
+
+#[cfg(unix)]
+fn open_nonblocking(path: &Path) -> io::Result<fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    // O_NONBLOCK: opening a FIFO with no writer returns at once instead of hanging.
+    const O_NONBLOCK: i32 = 0o4000;
+    fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(O_NONBLOCK)
+        .open(path)
+}
+
+#[cfg(not(unix))]
+fn open_nonblocking(path: &Path) -> io::Result<fs::File> {
+    fs::File::open(path)
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 struct Stamp {
@@ -33,58 +149,120 @@ struct Stamp {
 struct MemoEntry {
     stamp: Stamp,
     hash: ContentHash,
+    /// [`seal`] of the path, stamp and hash.
+    seal: ContentHash,
+}
+
+/// The keyed hash that binds a memo entry to its path.
+fn seal(path: &Path, stamp: &Stamp, hash: &ContentHash) -> ContentHash {
+    let mut h = blake3::Hasher::new_derive_key("ori-graph stat memo entry v2");
+    let path = path.as_os_str().as_encoded_bytes();
+    h.update(&(path.len() as u64).to_le_bytes());
+    h.update(path);
+    h.update(&stamp.size.to_le_bytes());
+    h.update(&stamp.mtime_ns.to_le_bytes());
+    h.update(&stamp.ctime_ns.to_le_bytes());
+    h.update(&stamp.inode.to_le_bytes());
+    h.update(&hash.0);
+    ContentHash(*h.finalize().as_bytes())
+}
+
+/// The memo file's intact entries, and how many were dropped as damaged (an unreadable file
+/// counts as one).
+fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize) {
+    let Ok(bytes) = fs::read(path) else {
+        return (BTreeMap::new(), 0);
+    };
+    let Ok(entries) = serde_json::from_slice::<BTreeMap<PathBuf, serde_json::Value>>(&bytes) else {
+        return (BTreeMap::new(), 1);
+    };
+    let mut dropped = 0;
+    let mut memo = BTreeMap::new();
+    for (file, value) in entries {
+        // Entries of the unsealed first version are simply read again, without a warning.
+        if value.get("seal").is_none() && value.get("stamp").is_some() {
+            continue;
+        }
+        match serde_json::from_value::<MemoEntry>(value) {
+            Ok(e) if e.seal == seal(&file, &e.stamp, &e.hash) => {
+                memo.insert(file, e);
+            }
+            _ => dropped += 1,
+        }
+    }
+    (memo, dropped)
 }
 
 /// Hashes source files, remembering results across builds in a memo file.
 pub struct SourceHasher {
     memo_path: PathBuf,
+    rules: SourceRules,
     memo: Mutex<BTreeMap<PathBuf, MemoEntry>>,
+    /// Damaged entries dropped when the memo was loaded.
+    dropped: usize,
     /// Files hashed by reading them (not from the memo) during this build.
     rehashed: Mutex<u64>,
 }
 
 impl SourceHasher {
-    /// Load the memo at `memo_path` (a missing or unreadable memo just means hashing anew).
-    pub fn new(memo_path: PathBuf) -> SourceHasher {
-        let memo = fs::read(&memo_path)
-            .ok()
-            .and_then(|b| serde_json::from_slice(&b).ok())
-            .unwrap_or_default();
+    /// Load the memo at `memo_path` (a missing memo just means hashing anew; damaged entries
+    /// are dropped and counted in [`SourceHasher::dropped`]).
+    pub fn new(memo_path: PathBuf, rules: SourceRules) -> SourceHasher {
+        let (memo, dropped) = load_memo(&memo_path);
         SourceHasher {
             memo_path,
+            rules,
             memo: Mutex::new(memo),
+            dropped,
             rehashed: Mutex::new(0),
         }
     }
 
-    /// Content hash of the file at `path`, or `Ok(None)` if there is no such file.
+    /// How many damaged memo entries were dropped on loading.
+    pub fn dropped(&self) -> usize {
+        self.dropped
+    }
+
+    /// The rules every file read through this hasher must pass.
+    pub fn rules(&self) -> &SourceRules {
+        &self.rules
+    }
+
+    /// Content hash of the file at `path`, or `Ok(None)` if there is no such file; an error
+    /// when the file breaks a [`SourceRules`] rule or cannot be read.
     pub fn hash(&self, path: &Path) -> io::Result<Option<ContentHash>> {
-        let meta = match fs::metadata(path) {
-            Ok(m) => m,
-            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-            Err(e) => return Err(e),
-        };
-        if !meta.is_file() {
+        let Some(meta) = self.rules.check(path)? else {
             return Ok(None);
-        }
+        };
         let stamp = stamp(&meta);
         if let Some(entry) = self.memo.lock().unwrap().get(path)
             && entry.stamp == stamp
         {
             return Ok(Some(entry.hash));
         }
-        let hash = ContentHash::of(&fs::read(path)?);
+        let hash = ContentHash::of(&self.rules.read(path)?);
         *self.rehashed.lock().unwrap() += 1;
         self.remember(path, stamp, hash);
         Ok(Some(hash))
     }
 
+    /// Read a file under the rules (see [`SourceRules::read`]).
+    pub fn read(&self, path: &Path) -> io::Result<Vec<u8>> {
+        self.rules.read(path)
+    }
+
+    /// Drop what is memoised for `path` (its bytes did not match), so the next build reads it.
+    pub fn forget(&self, path: &Path) {
+        self.memo.lock().unwrap().remove(path);
+    }
+
     /// Record the hash of bytes just read from `path` (stat taken before the read).
     fn remember(&self, path: &Path, stamp: Stamp, hash: ContentHash) {
+        let seal = seal(path, &stamp, &hash);
         self.memo
             .lock()
             .unwrap()
-            .insert(path.to_path_buf(), MemoEntry { stamp, hash });
+            .insert(path.to_path_buf(), MemoEntry { stamp, hash, seal });
     }
 
     /// How many files were read and hashed (memo misses) so far.
@@ -92,17 +270,14 @@ impl SourceHasher {
         *self.rehashed.lock().unwrap()
     }
 
-    /// Write the memo back, merged with entries another builder may have saved meanwhile,
-    /// leaving out racily recent files.
+    /// Write the memo back, merged with the intact entries another builder may have saved
+    /// meanwhile, leaving out racily recent files.
     pub fn save(&self) -> io::Result<()> {
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default()
             .as_nanos() as i128;
-        let mut merged: BTreeMap<PathBuf, MemoEntry> = fs::read(&self.memo_path)
-            .ok()
-            .and_then(|b| serde_json::from_slice(&b).ok())
-            .unwrap_or_default();
+        let (mut merged, _) = load_memo(&self.memo_path);
         let ours = self.memo.lock().unwrap();
         merged.extend(ours.iter().map(|(k, v)| (k.clone(), v.clone())));
         merged.retain(|_, e| {
@@ -149,15 +324,97 @@ mod tests {
         let file = dir.path().join("a.obj");
         let memo = dir.path().join("memo.json");
         fs::write(&file, b"v 0 0 0\n").unwrap();
-        let hasher = SourceHasher::new(memo.clone());
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
         let first = hasher.hash(&file).unwrap().unwrap();
         hasher.save().unwrap();
         // Rewrite with the same size immediately: the racy entry was not memoised.
         fs::write(&file, b"v 1 0 0\n").unwrap();
-        let hasher = SourceHasher::new(memo);
+        let hasher = SourceHasher::new(memo, SourceRules::default());
         let second = hasher.hash(&file).unwrap().unwrap();
         assert_ne!(first, second);
         assert_eq!(second, ContentHash::of(b"v 1 0 0\n"));
+    }
+
+    fn old_file(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+        let file = dir.join(name);
+        fs::write(&file, bytes).unwrap();
+        file
+    }
+
+    #[test]
+    fn memo_entries_are_bound_to_their_path_and_damage_is_dropped() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = old_file(dir.path(), "a.obj", b"a");
+        let b = old_file(dir.path(), "b.obj", b"b");
+        // The change time cannot be set back: wait until it is not racy.
+        std::thread::sleep(RACY_WINDOW + Duration::from_millis(100));
+        let memo = dir.path().join("memo.json");
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
+        hasher.hash(&a).unwrap();
+        hasher.hash(&b).unwrap();
+        hasher.save().unwrap();
+        let text = fs::read_to_string(&memo).unwrap();
+        let (ha, hb) = (
+            ContentHash::of(b"a").to_hex(),
+            ContentHash::of(b"b").to_hex(),
+        );
+        let swapped = text.replace(&ha, "X").replace(&hb, &ha).replace("X", &hb);
+        for (damaged, dropped) in [(swapped, 2), (text.replacen(&ha, &hb, 1), 1)] {
+            fs::write(&memo, damaged).unwrap();
+            let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
+            assert_eq!(hasher.dropped(), dropped);
+            assert_eq!(hasher.hash(&a).unwrap(), Some(ContentHash::of(b"a")));
+            assert_eq!(hasher.hash(&b).unwrap(), Some(ContentHash::of(b"b")));
+        }
+        fs::write(&memo, b"{not json").unwrap();
+        assert_eq!(SourceHasher::new(memo, SourceRules::default()).dropped(), 1);
+    }
+
+    #[test]
+    fn rules_confine_to_the_root_and_refuse_devices_fifos_and_large_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("root");
+        fs::create_dir(&root).unwrap();
+        fs::write(dir.path().join("outside"), b"secret").unwrap();
+        fs::write(root.join("inside"), b"ok").unwrap();
+        fs::write(root.join("large"), vec![0u8; 2000]).unwrap();
+        let rules = SourceRules::confined(&root, 1000).unwrap();
+        assert_eq!(rules.read(&root.join("inside")).unwrap(), b"ok");
+        assert_eq!(rules.read(&root.join("../root/inside")).unwrap(), b"ok");
+        let refused = |path: PathBuf, why: &str| {
+            let e = rules.read(&path).unwrap_err();
+            assert_eq!(e.kind(), io::ErrorKind::PermissionDenied, "{e}");
+            assert!(e.to_string().contains(why), "{e}");
+        };
+        refused(root.join("../outside"), "outside the asset root");
+        refused(dir.path().join("outside"), "outside the asset root");
+        refused(
+            root.join("large"),
+            "2000 bytes, more than the limit of 1000",
+        );
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(dir.path().join("outside"), root.join("link")).unwrap();
+            refused(root.join("link"), "outside the asset root");
+            std::os::unix::fs::symlink("/dev/zero", root.join("zero")).unwrap();
+            refused(root.join("zero"), "outside the asset root");
+            let fifo = root.join("fifo");
+            assert!(
+                std::process::Command::new("mkfifo")
+                    .arg(&fifo)
+                    .status()
+                    .unwrap()
+                    .success()
+            );
+            refused(fifo, "not a regular file");
+        }
+        assert_eq!(
+            rules.read(&root.join("missing")).unwrap_err().kind(),
+            io::ErrorKind::NotFound
+        );
+        let hasher = SourceHasher::new(dir.path().join("memo.json"), rules);
+        assert!(hasher.hash(&root.join("large")).is_err());
+        assert_eq!(hasher.hash(&root.join("missing")).unwrap(), None);
     }
 
     #[test]
@@ -167,11 +424,11 @@ mod tests {
         fs::write(&file, b"ply").unwrap();
         std::thread::sleep(RACY_WINDOW + Duration::from_millis(100));
         let memo = dir.path().join("memo.json");
-        let hasher = SourceHasher::new(memo.clone());
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
         hasher.hash(&file).unwrap();
         assert_eq!(hasher.rehashed(), 1);
         hasher.save().unwrap();
-        let hasher = SourceHasher::new(memo);
+        let hasher = SourceHasher::new(memo, SourceRules::default());
         assert_eq!(hasher.hash(&file).unwrap(), Some(ContentHash::of(b"ply")));
         assert_eq!(hasher.rehashed(), 0, "served from the memo");
         assert_eq!(hasher.hash(&dir.path().join("nope")).unwrap(), None);

@@ -101,7 +101,7 @@ impl MeshBuilder {
             }
         }
 
-        Ok(Mesh {
+        let mesh = Mesh {
             positions: self.positions,
             normals: self.normals,
             uvs: self.any_uv.then_some(self.uvs),
@@ -110,6 +110,19 @@ impl MeshBuilder {
             triangle_materials: self.triangle_materials,
             materials: self.materials,
             textures: self.textures,
-        })
+        };
+        let complexity = mesh.depth_complexity();
+        let limit = options.limits.max_depth_complexity;
+        if complexity > f64::from(limit) {
+            return Err(ErrorKind::Limit {
+                what: format!(
+                    "the depth complexity (surface area over the bounding sphere's cross-section, {complexity:.0})"
+                ),
+                value: complexity.ceil() as u64,
+                limit: u64::from(limit),
+                key: "[limits] max_depth_complexity",
+            });
+        }
+        Ok(mesh)
     }
 }

@@ -63,6 +63,15 @@ pub enum ErrorKind {
     /// Nothing to draw.
     #[error("the model has no triangles{0}")]
     Empty(String),
+    /// The model holds more than a configured limit allows.
+    #[error("{what} is {value}, more than the limit of {limit} ({key})")]
+    Limit {
+        what: String,
+        value: u64,
+        limit: u64,
+        /// The configuration key that sets the limit.
+        key: &'static str,
+    },
     /// A glTF extension that changes geometry, which this loader does not implement.
     #[error(
         "unsupported glTF extension `{0}` (it changes the geometry, so loading without it would be wrong)"

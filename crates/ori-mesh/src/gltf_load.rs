@@ -23,7 +23,8 @@ use gltf::texture::{MagFilter, WrappingMode};
 use gltf::{Accessor, Document, Semantic};
 
 use crate::builder::MeshBuilder;
-use crate::{AlphaMode, ErrorKind, Material, MeshError, Resolver, Texture, Wrap, texture};
+use crate::texture::TextureBudget;
+use crate::{AlphaMode, ErrorKind, Limits, Material, MeshError, Resolver, Texture, Wrap, texture};
 
 /// Extensions that change what the geometry is: loading without them would be silently wrong,
 /// so a file that uses one is refused even when it only lists it as used.
@@ -71,14 +72,16 @@ const BASE64: GeneralPurpose = GeneralPurpose::new(
 pub(crate) fn load(
     path: &Path,
     bytes: &[u8],
+    limits: &Limits,
     resolver: &mut Resolver<'_>,
     warnings: &mut Vec<String>,
 ) -> Result<MeshBuilder, MeshError> {
-    load_document(bytes, resolver, warnings).map_err(|kind| kind.in_file(path))
+    load_document(bytes, limits, resolver, warnings).map_err(|kind| kind.in_file(path))
 }
 
 fn load_document(
     bytes: &[u8],
+    limits: &Limits,
     resolver: &mut Resolver<'_>,
     warnings: &mut Vec<String>,
 ) -> Result<MeshBuilder, ErrorKind> {
@@ -107,6 +110,7 @@ fn load_document(
         default_material: None,
         textures: HashMap::new(),
         decoded_images: HashMap::new(),
+        budget: TextureBudget::new(limits),
         warned: HashSet::new(),
         skipped_primitives: false,
     };
@@ -412,6 +416,7 @@ struct Loader<'a, 'r> {
     textures: HashMap<(usize, Option<usize>), u32>,
     /// A canonical texture holding each decoded image, so an image is decoded only once.
     decoded_images: HashMap<usize, u32>,
+    budget: TextureBudget,
     /// Warnings already given, so an instanced mesh does not repeat them.
     warned: HashSet<String>,
     /// Whether any point or line primitive was skipped, to explain an empty result.
@@ -788,7 +793,7 @@ impl Loader<'_, '_> {
                 )));
             }
         };
-        texture::decode(&name, &bytes)
+        texture::decode(&name, &bytes, &mut self.budget)
     }
 }
 

@@ -153,11 +153,39 @@ impl Format {
     }
 }
 
-/// Choices that change the loaded mesh.
+/// Choices that change the loaded mesh, and the bounds a model must stay within.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Ignore normals in the file and compute angle-weighted ones everywhere.
     pub recompute_normals: bool,
+    pub limits: Limits,
+}
+
+/// Bounds on what one model may make the loader allocate and the later stages draw, checked
+/// against what the file really holds before anything that size is allocated. A model past a
+/// limit fails with an error naming the limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// Pixels of one decoded texture.
+    pub max_texture_pixels: u64,
+    /// Pixels of all the decoded textures of one model together.
+    pub max_total_texture_pixels: u64,
+    /// Corners of one polygon (OBJ and PLY faces are fan-triangulated).
+    pub max_face_corners: usize,
+    /// [`Mesh::depth_complexity`]: how many layers of surface a ray through the object
+    /// crosses on average. Every image of the mesh costs time in proportion to it.
+    pub max_depth_complexity: u32,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_texture_pixels: 8192 * 8192,
+            max_total_texture_pixels: 2 * 8192 * 8192,
+            max_face_corners: 4096,
+            max_depth_complexity: 64,
+        }
+    }
 }
 
 /// A loaded mesh and the non-fatal problems found on the way.
@@ -190,10 +218,13 @@ pub fn load(
 ) -> Result<Loaded, MeshError> {
     let format = Format::from_path(path).ok_or_else(|| ErrorKind::UnknownFormat.in_file(path))?;
     let mut warnings = Vec::new();
+    let limits = &options.limits;
     let builder = match format {
-        Format::Gltf | Format::Glb => gltf_load::load(path, bytes, resolver, &mut warnings)?,
-        Format::Obj => obj::load(path, bytes, resolver, &mut warnings)?,
-        Format::Ply => ply::load(bytes, &mut warnings).map_err(|k| k.in_file(path))?,
+        Format::Gltf | Format::Glb => {
+            gltf_load::load(path, bytes, limits, resolver, &mut warnings)?
+        }
+        Format::Obj => obj::load(path, bytes, limits, resolver, &mut warnings)?,
+        Format::Ply => ply::load(bytes, limits, &mut warnings).map_err(|k| k.in_file(path))?,
     };
     let mesh = builder.finish(options).map_err(|k| k.in_file(path))?;
     Ok(Loaded { mesh, warnings })
@@ -208,6 +239,38 @@ impl Mesh {
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
+    }
+
+    /// The surface area of all triangles over the cross-section of the sphere around the
+    /// bounds: about how many layers of surface a ray through the object crosses (real
+    /// scans and game models have 0.4 to 2). Drawing the mesh costs time in proportion to
+    /// it; a fan of long overlapping slivers has thousands.
+    pub fn depth_complexity(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        let d: Vec<f64> = (0..3)
+            .map(|k| f64::from(hi[k]) - f64::from(lo[k]))
+            .collect();
+        let r2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / 4.0;
+        if r2 <= 0.0 || !r2.is_finite() {
+            return 0.0;
+        }
+        let p = |i: u32| self.positions[i as usize].map(f64::from);
+        let area: f64 = self
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| {
+                let (a, b, c) = (p(a), p(b), p(c));
+                let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+                let n = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
+                (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() / 2.0
+            })
+            .sum();
+        area / (std::f64::consts::PI * r2)
     }
 
     /// Axis-aligned bounds `(min, max)` of the positions.

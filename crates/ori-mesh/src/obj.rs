@@ -16,7 +16,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::builder::MeshBuilder;
-use crate::{AlphaMode, ErrorKind, Material, MeshError, Resolver, texture};
+use crate::texture::TextureBudget;
+use crate::{AlphaMode, ErrorKind, Limits, Material, MeshError, Resolver, texture};
 
 /// Marks a face corner without a texture coordinate or normal.
 const NONE: u32 = u32::MAX;
@@ -24,11 +25,15 @@ const NONE: u32 = u32::MAX;
 pub(crate) fn load(
     path: &Path,
     bytes: &[u8],
+    limits: &Limits,
     resolver: &mut Resolver<'_>,
     warnings: &mut Vec<String>,
 ) -> Result<MeshBuilder, MeshError> {
-    let mut obj = Obj::default();
-    let mut library = Library::new(path);
+    let mut obj = Obj {
+        max_face_corners: limits.max_face_corners,
+        ..Obj::default()
+    };
+    let mut library = Library::new(path, limits);
     let mut skipped_elements = 0usize;
     let mut unsupported: Vec<String> = Vec::new();
     for (line, text) in Lines::new(bytes) {
@@ -96,6 +101,8 @@ struct Obj {
     slots: Vec<Slot>,
     slot_of: HashMap<String, usize>,
     current_slot: usize,
+    /// [`Limits::max_face_corners`].
+    max_face_corners: usize,
 }
 
 impl Default for Obj {
@@ -115,6 +122,7 @@ impl Default for Obj {
             }],
             slot_of: HashMap::new(),
             current_slot: 0,
+            max_face_corners: Limits::default().max_face_corners,
         }
     }
 }
@@ -200,6 +208,16 @@ impl Obj {
     ) -> Result<(), ErrorKind> {
         let first = self.corners.len();
         for word in args {
+            if self.corners.len() - first == self.max_face_corners {
+                self.corners.truncate(first);
+                return Err(syntax(
+                    line,
+                    format!(
+                        "a face has more than {} corners, the limit ([limits] max_face_corners)",
+                        self.max_face_corners
+                    ),
+                ));
+            }
             match self.corner(word, line) {
                 Ok(corner) => self.corners.push(corner),
                 Err(e) => {
@@ -371,6 +389,7 @@ struct Library {
     definitions: HashMap<String, Definition>,
     /// Texture index by resolver reference.
     textures: HashMap<String, u32>,
+    budget: TextureBudget,
 }
 
 /// One `newmtl` block, as written.
@@ -385,8 +404,9 @@ struct Definition {
 }
 
 impl Library {
-    fn new(model: &Path) -> Library {
+    fn new(model: &Path, limits: &Limits) -> Library {
         Library {
+            budget: TextureBudget::new(limits),
             dir: model.parent().unwrap_or(Path::new("")).to_path_buf(),
             model: model.to_path_buf(),
             loaded: Vec::new(),
@@ -487,7 +507,8 @@ impl Library {
             }
             .in_file(mtl)
         })?;
-        let texture = texture::decode(reference, &bytes).map_err(|kind| kind.in_file(mtl))?;
+        let texture = texture::decode(reference, &bytes, &mut self.budget)
+            .map_err(|kind| kind.in_file(mtl))?;
         builder.textures.push(texture);
         let index = (builder.textures.len() - 1) as u32;
         self.textures.insert(reference.to_string(), index);

@@ -9,16 +9,27 @@
 //! stays linear) and texture coordinates (v flipped to glTF's convention); `face` gives
 //! polygons, fan-triangulated. Other elements and properties are skipped.
 
-use crate::ErrorKind;
 use crate::builder::MeshBuilder;
+use crate::{ErrorKind, Limits};
 
-pub(crate) fn load(bytes: &[u8], warnings: &mut Vec<String>) -> Result<MeshBuilder, ErrorKind> {
+pub(crate) fn load(
+    bytes: &[u8],
+    limits: &Limits,
+    warnings: &mut Vec<String>,
+) -> Result<MeshBuilder, ErrorKind> {
     let header = Header::parse(bytes)?;
     let body = &bytes[header.body_start..];
     match header.format {
-        Encoding::Ascii => read_body(&header, Ascii::new(body, header.body_line), warnings),
-        Encoding::BinaryLittleEndian => read_body(&header, Binary::new(body, false), warnings),
-        Encoding::BinaryBigEndian => read_body(&header, Binary::new(body, true), warnings),
+        Encoding::Ascii => read_body(
+            &header,
+            Ascii::new(body, header.body_line),
+            limits,
+            warnings,
+        ),
+        Encoding::BinaryLittleEndian => {
+            read_body(&header, Binary::new(body, false), limits, warnings)
+        }
+        Encoding::BinaryBigEndian => read_body(&header, Binary::new(body, true), limits, warnings),
     }
 }
 
@@ -476,6 +487,7 @@ impl VertexLayout {
 fn read_body<R: Values>(
     header: &Header,
     mut reader: R,
+    limits: &Limits,
     warnings: &mut Vec<String>,
 ) -> Result<MeshBuilder, ErrorKind> {
     let mut vertex_elements = header.elements.iter().filter(|e| e.name == "vertex");
@@ -524,7 +536,11 @@ fn read_body<R: Values>(
             "vertex" => read_vertices(element, &layout, &mut reader, &mut builder)?,
             "face" if !faces_seen => {
                 faces_seen = true;
-                read_faces(element, vertex_count, &mut reader, &mut builder, warnings)?;
+                let faces = Faces {
+                    vertex_count,
+                    max_corners: limits.max_face_corners,
+                };
+                read_faces(element, faces, &mut reader, &mut builder, warnings)?;
             }
             _ => {
                 for i in 0..element.count {
@@ -621,9 +637,19 @@ fn read_vertices<R: Values>(
     Ok(())
 }
 
+/// What face indices are checked against.
+#[derive(Clone, Copy)]
+struct Faces {
+    vertex_count: usize,
+    max_corners: usize,
+}
+
 fn read_faces<R: Values>(
     element: &Element,
-    vertex_count: usize,
+    Faces {
+        vertex_count,
+        max_corners,
+    }: Faces,
     reader: &mut R,
     builder: &mut MeshBuilder,
     warnings: &mut Vec<String>,
@@ -674,6 +700,14 @@ fn read_faces<R: Values>(
                 return Err(ErrorKind::Corrupt(format!(
                     "face {i} has {n} corners (at least 3 are needed)"
                 )));
+            }
+            if n > max_corners as f64 {
+                return Err(ErrorKind::Limit {
+                    what: format!("face {i}: its corner count"),
+                    value: n as u64,
+                    limit: max_corners as u64,
+                    key: "[limits] max_face_corners",
+                });
             }
             let mut corner = || -> Result<u32, ErrorKind> {
                 let index = reader.value(index_type).map_err(|e| e.describe(context))?;

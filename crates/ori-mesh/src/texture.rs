@@ -4,25 +4,77 @@
 //! IDCT / colour-conversion paths are not promised to round alike, and texels reach artifact
 //! bytes, which must be identical on every machine. PNG decoding is exact integer work.
 
-use crate::{ErrorKind, Texture, Wrap};
+use crate::{ErrorKind, Limits, Texture, Wrap};
 
 /// Largest accepted image edge; bigger files are refused before any pixel is allocated.
 const MAX_EDGE: u32 = 16_384;
 
+/// What is left of a model's texture limits as its images are decoded.
+pub(crate) struct TextureBudget {
+    per_image: u64,
+    remaining: u64,
+}
+
+impl TextureBudget {
+    pub(crate) fn new(limits: &Limits) -> TextureBudget {
+        TextureBudget {
+            per_image: limits.max_texture_pixels,
+            remaining: limits.max_total_texture_pixels,
+        }
+    }
+
+    /// Take a `width x height` image out of the budget, or say which limit it breaks.
+    fn take(&mut self, name: &str, width: u32, height: u32) -> Result<(), ErrorKind> {
+        let pixels = u64::from(width) * u64::from(height);
+        if pixels > self.per_image {
+            return Err(ErrorKind::Limit {
+                what: format!("texture `{name}` ({width} x {height}): its pixel count"),
+                value: pixels,
+                limit: self.per_image,
+                key: "[limits] max_texture_pixels",
+            });
+        }
+        if pixels > self.remaining {
+            return Err(ErrorKind::Limit {
+                what: format!(
+                    "texture `{name}` ({width} x {height}) with the textures before it: the pixel count left"
+                ),
+                value: pixels,
+                limit: self.remaining,
+                key: "[limits] max_total_texture_pixels",
+            });
+        }
+        self.remaining -= pixels;
+        Ok(())
+    }
+}
+
 /// Decode PNG or JPEG bytes (format sniffed from the content) into an RGBA8 texture with
-/// repeat wrapping and bilinear filtering; `name` identifies it in messages.
-pub(crate) fn decode(name: &str, bytes: &[u8]) -> Result<Texture, ErrorKind> {
+/// repeat wrapping and bilinear filtering; `name` identifies it in messages. The image's
+/// size is read from its header and taken from `budget` before any pixel is decoded.
+pub(crate) fn decode(
+    name: &str,
+    bytes: &[u8],
+    budget: &mut TextureBudget,
+) -> Result<Texture, ErrorKind> {
     let fail = |message: String| ErrorKind::Image {
         name: format!("`{name}`"),
         message,
     };
     let (width, height, rgba8) = if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        let (w, h) = jpeg_size(bytes).map_err(fail)?;
+        budget.take(name, w, h)?;
         decode_jpeg(bytes).map_err(fail)?
     } else if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+        let (w, h) = png_size(bytes).map_err(fail)?;
+        budget.take(name, w, h)?;
         decode_png(bytes).map_err(fail)?
     } else {
         return Err(fail("not a PNG or JPEG file".into()));
     };
+    if u64::from(width) * u64::from(height) * 4 != rgba8.len() as u64 {
+        return Err(fail("the decoded size differs from the header's".into()));
+    }
     Ok(Texture {
         name: name.to_string(),
         width,
@@ -32,6 +84,23 @@ pub(crate) fn decode(name: &str, bytes: &[u8]) -> Result<Texture, ErrorKind> {
         wrap_t: Wrap::Repeat,
         nearest: false,
     })
+}
+
+fn png_size(bytes: &[u8]) -> Result<(u32, u32), String> {
+    image::ImageReader::with_format(std::io::Cursor::new(bytes), image::ImageFormat::Png)
+        .into_dimensions()
+        .map_err(|e| e.to_string())
+}
+
+fn jpeg_size(bytes: &[u8]) -> Result<(u32, u32), String> {
+    let options = zune_core::options::DecoderOptions::default()
+        .set_max_width(MAX_EDGE as usize)
+        .set_max_height(MAX_EDGE as usize);
+    let mut decoder =
+        zune_jpeg::JpegDecoder::new_with_options(std::io::Cursor::new(bytes), options);
+    decoder.decode_headers().map_err(|e| format!("{e:?}"))?;
+    let info = decoder.info().ok_or("no image header")?;
+    Ok((u32::from(info.width), u32::from(info.height)))
 }
 
 fn decode_png(bytes: &[u8]) -> Result<(u32, u32, Vec<u8>), String> {
@@ -79,7 +148,8 @@ mod tests {
             b"\x89PNG\r\n\x1a\nxx",
             b"GIF89a",
         ] {
-            assert!(decode("t", bytes).is_err());
+            let mut budget = TextureBudget::new(&Limits::default());
+            assert!(decode("t", bytes, &mut budget).is_err());
         }
     }
 }

@@ -18,9 +18,87 @@ pub struct Config {
     pub assets: AssetsConfig,
     pub cache: CacheConfig,
     pub output: OutputConfig,
+    pub limits: LimitsConfig,
     /// Stage parameters before overrides.
     stages: toml::Table,
     overrides: Vec<Override>,
+    /// The file's text, to point at the line of a value found wrong later.
+    text: String,
+}
+
+/// `[limits]`: how large the files a model brings may be, and what it may make the loader
+/// allocate. Every model and the files it references are untrusted input.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LimitsConfig {
+    /// Largest model file, and largest file it references, in MiB.
+    pub max_file_mb: u64,
+    /// Pixels of one decoded texture.
+    pub max_texture_pixels: u64,
+    /// Pixels of all the decoded textures of one model.
+    pub max_total_texture_pixels: u64,
+    /// Corners of one polygon.
+    pub max_face_corners: usize,
+    /// Surface area over the bounding sphere's cross-section (layers an average ray crosses).
+    pub max_depth_complexity: u32,
+}
+
+impl Default for LimitsConfig {
+    fn default() -> Self {
+        let mesh = ori_mesh::Limits::default();
+        LimitsConfig {
+            max_file_mb: ori_graph::DEFAULT_MAX_FILE_BYTES >> 20,
+            max_texture_pixels: mesh.max_texture_pixels,
+            max_total_texture_pixels: mesh.max_total_texture_pixels,
+            max_face_corners: mesh.max_face_corners,
+            max_depth_complexity: mesh.max_depth_complexity,
+        }
+    }
+}
+
+impl LimitsConfig {
+    fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("max_file_mb", self.max_file_mb),
+            ("max_texture_pixels", self.max_texture_pixels),
+            ("max_total_texture_pixels", self.max_total_texture_pixels),
+            ("max_face_corners", self.max_face_corners as u64),
+            ("max_depth_complexity", u64::from(self.max_depth_complexity)),
+        ];
+        for (key, value) in positive {
+            if value == 0 {
+                return Err(format!("[limits] {key} = 0: expected at least 1"));
+            }
+        }
+        if self.max_file_mb > 1 << 20 {
+            return Err(format!(
+                "[limits] max_file_mb = {}: expected at most 1048576 (1 TiB)",
+                self.max_file_mb
+            ));
+        }
+        if self.max_face_corners < 3 {
+            return Err(format!(
+                "[limits] max_face_corners = {}: a polygon has at least 3 corners",
+                self.max_face_corners
+            ));
+        }
+        Ok(())
+    }
+
+    /// The largest file, in bytes.
+    pub fn max_file_bytes(&self) -> u64 {
+        self.max_file_mb << 20
+    }
+
+    /// The loader's limits.
+    pub fn mesh(&self) -> ori_mesh::Limits {
+        ori_mesh::Limits {
+            max_texture_pixels: self.max_texture_pixels,
+            max_total_texture_pixels: self.max_total_texture_pixels,
+            max_face_corners: self.max_face_corners,
+            max_depth_complexity: self.max_depth_complexity,
+        }
+    }
 }
 
 /// `[assets]`: which files are assets.
@@ -235,6 +313,8 @@ struct ConfigFile {
     #[serde(default)]
     output: OutputConfig,
     #[serde(default)]
+    limits: LimitsConfig,
+    #[serde(default)]
     ingest: Option<toml::Table>,
     #[serde(default)]
     views: Option<toml::Table>,
@@ -296,6 +376,21 @@ fn stage_tables(sections: [(&str, Option<toml::Table>); 8]) -> toml::Table {
     t
 }
 
+/// Whether the override's own tables set the key at `path`.
+fn over_has(over: &toml::Table, path: &KeyPath) -> bool {
+    let mut table = Some(over);
+    for segment in &path.0 {
+        let KeySegment::Key(key) = segment else {
+            return false;
+        };
+        let Some(value) = table.and_then(|t| t.get(key)) else {
+            return false;
+        };
+        table = value.as_table();
+    }
+    !path.0.is_empty()
+}
+
 /// Merge `over` into `base`: tables recursively, other values replaced.
 fn merge(base: &mut toml::Table, over: &toml::Table) {
     for (key, value) in over {
@@ -308,8 +403,108 @@ fn merge(base: &mut toml::Table, over: &toml::Table) {
     }
 }
 
-/// Deserialise stage sections and check their values.
-fn to_params(mut table: toml::Table) -> Result<StageParams, String> {
+/// A key path into the file, for messages: `select.impostors`, `overrides[2].bake.n`.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct KeyPath(Vec<KeySegment>);
+
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum KeySegment {
+    Key(String),
+    Index(usize),
+}
+
+impl KeyPath {
+    fn of(path: &serde_path_to_error::Path) -> KeyPath {
+        use serde_path_to_error::Segment;
+        KeyPath(
+            path.iter()
+                .filter_map(|s| match s {
+                    Segment::Map { key } => Some(KeySegment::Key(key.clone())),
+                    Segment::Seq { index } => Some(KeySegment::Index(*index)),
+                    Segment::Enum { variant } => Some(KeySegment::Key(variant.clone())),
+                    Segment::Unknown => None,
+                })
+                .collect(),
+        )
+    }
+
+    /// Below `[[overrides]]` number `index` (0-based).
+    fn in_override(mut self, index: usize) -> KeyPath {
+        let mut path = vec![
+            KeySegment::Key("overrides".into()),
+            KeySegment::Index(index),
+        ];
+        path.append(&mut self.0);
+        KeyPath(path)
+    }
+
+    /// The 1-based line of the value at this path in `text`, if it is written there.
+    fn line_in(&self, text: &str) -> Option<usize> {
+        let document = toml::de::DeTable::parse(text).ok()?;
+        let mut span = document.span();
+        let mut table = Some(document.get_ref());
+        let mut array: Option<&toml::de::DeArray<'_>> = None;
+        for segment in &self.0 {
+            let value = match segment {
+                KeySegment::Key(key) => {
+                    table?
+                        .iter()
+                        .find(|(k, _)| k.get_ref().as_ref() == key.as_str())?
+                        .1
+                }
+                KeySegment::Index(i) => array?.iter().nth(*i)?,
+            };
+            span = value.span();
+            table = value.get_ref().as_table();
+            array = value.get_ref().as_array();
+        }
+        Some(text[..span.start.min(text.len())].matches('\n').count() + 1)
+    }
+}
+
+impl std::fmt::Display for KeyPath {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, segment) in self.0.iter().enumerate() {
+            match segment {
+                KeySegment::Key(k) if i == 0 => write!(f, "{k}")?,
+                KeySegment::Key(k) => write!(f, ".{k}")?,
+                KeySegment::Index(n) => write!(f, "[{n}]")?,
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A value that does not fit its key: the key's path and why.
+#[derive(Debug)]
+struct ValueError {
+    key: KeyPath,
+    message: String,
+}
+
+impl ValueError {
+    fn plain(message: String) -> ValueError {
+        ValueError {
+            key: KeyPath::default(),
+            message,
+        }
+    }
+
+    /// The message, with the key and its line in `text` when known.
+    fn describe(&self, text: &str) -> String {
+        if self.key.0.is_empty() {
+            return self.message.clone();
+        }
+        match self.key.line_in(text) {
+            Some(line) => format!("line {line}: `{}`: {}", self.key, self.message),
+            None => format!("`{}`: {}", self.key, self.message),
+        }
+    }
+}
+
+/// Deserialise stage sections and check their values; an error keeps the key path of a
+/// value of the wrong type.
+fn to_params_at(mut table: toml::Table) -> Result<StageParams, ValueError> {
     let bake = table.get_mut("bake").and_then(|b| b.as_table_mut());
     let auto = match bake {
         Some(bake) if bake.get("resolution").and_then(|r| r.as_str()) == Some("auto") => {
@@ -318,15 +513,19 @@ fn to_params(mut table: toml::Table) -> Result<StageParams, String> {
         }
         _ => false,
     };
-    let mut params =
-        StageParams::deserialize(toml::Value::Table(table)).map_err(|e| e.message().to_string())?;
+    let mut params: StageParams = serde_path_to_error::deserialize(toml::Value::Table(table))
+        .map_err(|e| ValueError {
+            key: KeyPath::of(e.path()),
+            message: e.inner().message().to_string(),
+        })?;
     params.auto_resolution = auto;
-    params.plt.validate()?;
-    params.views.validate().map_err(|e| e.to_string())?;
-    params.place.validate().map_err(|e| e.to_string())?;
-    params.bake.validate().map_err(|e| e.to_string())?;
-    params.select.validate().map_err(|e| e.to_string())?;
-    params.hierarchy.validate()?;
+    let plain = |e: String| ValueError::plain(e);
+    params.plt.validate().map_err(plain)?;
+    params.views.validate().map_err(|e| plain(e.to_string()))?;
+    params.place.validate().map_err(|e| plain(e.to_string()))?;
+    params.bake.validate().map_err(|e| plain(e.to_string()))?;
+    params.select.validate().map_err(|e| plain(e.to_string()))?;
+    params.hierarchy.validate().map_err(plain)?;
     Ok(params)
 }
 
@@ -358,7 +557,7 @@ impl Config {
             ("plt", file.plt),
             ("hierarchy", file.hierarchy),
         ]);
-        to_params(stages.clone()).map_err(fail)?;
+        to_params_at(stages.clone()).map_err(|e| fail(e.describe(text)))?;
         let mut overrides = Vec::new();
         for (i, o) in file.overrides.into_iter().enumerate() {
             let what = format!("[[overrides]] #{} (assets = {:?})", i + 1, o.assets);
@@ -375,7 +574,13 @@ impl Config {
             ]);
             let mut merged = stages.clone();
             merge(&mut merged, &over);
-            to_params(merged).map_err(|e| fail(format!("{what}: {e}")))?;
+            to_params_at(merged).map_err(|mut e| {
+                // A key set by this override is written in it; others come from the base.
+                if over_has(&over, &e.key) {
+                    e.key = e.key.clone().in_override(i);
+                }
+                fail(format!("{what}: {}", e.describe(text)))
+            })?;
             overrides.push(Override {
                 pattern: o.assets,
                 matcher,
@@ -385,6 +590,7 @@ impl Config {
         if let Some(remote) = &file.cache.remote {
             remote.validate().map_err(fail)?;
         }
+        file.limits.validate().map_err(fail)?;
         for pattern in file.assets.include.iter().chain(&file.assets.exclude) {
             glob(pattern).map_err(|e| fail(format!("[assets] pattern {pattern:?}: {e}")))?;
         }
@@ -394,23 +600,41 @@ impl Config {
             assets: file.assets,
             cache: file.cache,
             output: file.output,
+            limits: file.limits,
             stages,
             overrides,
+            text: text.to_string(),
         })
     }
 
     /// Stage parameters for the asset at `relative` (its path under the assets root, with
     /// `/` separators): the base sections with every matching override applied in file order.
-    pub fn params_for(&self, relative: &str) -> StageParams {
+    /// Each override was checked alone at load; several that match one asset can still
+    /// conflict together, which is an error naming the asset and the overrides.
+    pub fn params_for(&self, relative: &str) -> Result<StageParams, PipelineError> {
         let mut merged = self.stages.clone();
-        for o in self
+        let matching: Vec<&Override> = self
             .overrides
             .iter()
             .filter(|o| o.matcher.is_match(relative))
-        {
+            .collect();
+        for o in &matching {
             merge(&mut merged, &o.stages);
         }
-        to_params(merged).expect("every override combination was checked at load")
+        to_params_at(merged).map_err(|e| {
+            let patterns: Vec<String> = matching
+                .iter()
+                .map(|o| format!("{:?}", o.pattern))
+                .collect();
+            PipelineError::Config {
+                path: self.path.clone(),
+                message: format!(
+                    "asset {relative}: the [[overrides]] that match it ({}) conflict together: {}",
+                    patterns.join(", "),
+                    e.describe(&self.text)
+                ),
+            }
+        })
     }
 
     /// The override patterns, in file order.
@@ -436,7 +660,7 @@ mod tests {
     fn defaults_when_empty() {
         let c = parse("").unwrap();
         assert_eq!(c.assets.root, PathBuf::from("samples"));
-        assert_eq!(c.params_for("a.obj"), StageParams::default());
+        assert_eq!(c.params_for("a.obj").unwrap(), StageParams::default());
         assert_eq!(
             c.resolve(&c.cache.dir),
             PathBuf::from("conf/target/ori-cache")
@@ -479,11 +703,27 @@ mod tests {
              [[overrides]]\nassets = \"trees/palm/*.glb\"\ningest.recompute_normals = false\n",
         )
         .unwrap();
-        assert!(c.params_for("trees/oak/oak.obj").ingest.recompute_normals);
-        assert!(!c.params_for("trees/palm/p.glb").ingest.recompute_normals);
-        assert!(!c.params_for("rocks/trees/x.obj").ingest.recompute_normals);
+        assert!(
+            c.params_for("trees/oak/oak.obj")
+                .unwrap()
+                .ingest
+                .recompute_normals
+        );
+        assert!(
+            !c.params_for("trees/palm/p.glb")
+                .unwrap()
+                .ingest
+                .recompute_normals
+        );
+        assert!(
+            !c.params_for("rocks/trees/x.obj")
+                .unwrap()
+                .ingest
+                .recompute_normals
+        );
         assert!(
             c.params_for("trees/palm/deep/p.glb")
+                .unwrap()
                 .ingest
                 .recompute_normals
         );

@@ -16,8 +16,11 @@ pub const SUMMARY: &str = "summary";
 ///
 /// Parameters: `{"format": "obj"|"ply"|"gltf"|"glb", "recompute_normals": bool}`. The format is
 /// a parameter (not part of the content) because the same bytes under another extension
-/// would be parsed differently.
-pub struct IngestStage;
+/// would be parsed differently. The `[limits]` are not parameters: they decide whether a
+/// model loads, never what it loads to.
+pub struct IngestStage {
+    pub limits: ori_mesh::Limits,
+}
 
 /// What the ingest stage reports about a mesh (its `summary` output).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -79,6 +82,7 @@ impl Stage for IngestStage {
         let bytes = ctx.input("source")?;
         let options = LoadOptions {
             recompute_normals: params.recompute_normals,
+            limits: self.limits,
         };
         let loaded = ori_mesh::load(&path, &bytes, &options, &mut |uri: &str| {
             ctx.read_discovered(uri)

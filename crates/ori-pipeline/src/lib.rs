@@ -141,9 +141,9 @@ struct Stages {
 }
 
 impl Stages {
-    fn new() -> Stages {
+    fn new(limits: ori_mesh::Limits) -> Stages {
         Stages {
-            ingest: Arc::new(ingest::IngestStage),
+            ingest: Arc::new(ingest::IngestStage { limits }),
             views: Arc::new(stages::ViewsStage),
             place: Arc::new(stages::PlaceStage),
             bake: Arc::new(stages::BakeStage),
@@ -257,6 +257,7 @@ fn plan_chain(
         tool: package::tool(),
         depth: params.compress.depth,
         pipeline: recorded_params(params),
+        measured_on: params.select_device.clone(),
     };
     let package = graph.add(job(
         &stages.package,
@@ -322,9 +323,9 @@ fn node_label(asset: &str, node: usize) -> String {
     format!("{asset} [node {node}]")
 }
 
-/// Build the job graph for `assets`.
-pub fn plan(assets: &[PlannedAsset]) -> (Graph, Vec<AssetJobs>) {
-    let stages = Stages::new();
+/// Build the job graph for `assets`; models are loaded within `limits`.
+pub fn plan(assets: &[PlannedAsset], limits: ori_mesh::Limits) -> (Graph, Vec<AssetJobs>) {
+    let stages = Stages::new(limits);
     let mut graph = Graph::new();
     let mut jobs = Vec::new();
     for planned in assets {
@@ -429,6 +430,10 @@ fn to_json<T: Serialize>(value: &T) -> serde_json::Value {
 #[derive(Clone, Debug, Serialize)]
 pub struct BuildSummary {
     pub assets: usize,
+    /// Assets that did not build (their errors were printed with their jobs).
+    pub failed_assets: usize,
+    /// About the output folder, for the user (e.g. files left alone).
+    pub warnings: Vec<String>,
     pub stages: Vec<StageLine>,
     pub failed_jobs: usize,
     pub wall_seconds: f64,
@@ -611,6 +616,16 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         })?)),
         None => None,
     };
+    let mut params = Vec::with_capacity(assets.len());
+    for a in &assets {
+        params.push(config::StageParams {
+            select_device: options.gpu_select.clone(),
+            ..config.params_for(&a.name)?
+        });
+    }
+    let limits = config.limits.mesh();
+    let sources = ori_graph::SourceRules::confined(&root, config.limits.max_file_bytes())
+        .map_err(|e| PipelineError::Assets(format!("assets folder {}: {e}", root.display())))?;
     let cache = Cache::open(&cache_dir).map_err(|e| PipelineError::Output {
         path: cache_dir.clone(),
         message: format!("cannot create the cache folder: {e}"),
@@ -620,14 +635,8 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         dry_run: options.dry_run,
         remote: remote.clone(),
         cached_only: options.assemble,
+        sources,
     };
-    let mut params: Vec<config::StageParams> = assets
-        .iter()
-        .map(|a| config::StageParams {
-            select_device: options.gpu_select.clone(),
-            ..config.params_for(&a.name)
-        })
-        .collect();
     let mut stages = Vec::new();
     let mut sources_hashed = 0;
     // `auto` resolutions are measured first, then hierarchies' shapes (a dry run plans the
@@ -645,8 +654,8 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
             sources_hashed += build.sources_rehashed();
             read(&build);
         };
-        let auto = choose_resolutions(&assets, &mut params, &mut trial_run);
-        trees = choose_trees(&assets, &params, &mut trial_run);
+        let auto = choose_resolutions(&assets, &mut params, limits, &mut trial_run);
+        trees = choose_trees(&assets, &params, limits, &mut trial_run);
         auto
     };
     let planned: Vec<PlannedAsset> = assets
@@ -660,7 +669,7 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
             tree,
         })
         .collect();
-    let (graph, jobs) = plan(&planned);
+    let (graph, jobs) = plan(&planned, limits);
     let progress = Progress::new(&graph, options.progress, options.explain || options.dry_run);
     let build = ori_graph::run(&graph, &cache, &run_options, &progress);
     progress.finish();
@@ -801,9 +810,11 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
     {
         explode(dir, &packages)?;
     }
+    let mut warnings = Vec::new();
     if write_release {
-        release::write(&out_dir, &packages)
+        let written = release::write(&out_dir, &packages)
             .map_err(|(path, message)| PipelineError::Output { path, message })?;
+        warnings.extend(written.warnings);
     }
     let report_path = if !write_release {
         None
@@ -819,6 +830,12 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
 
     Ok(BuildSummary {
         assets: assets.len(),
+        failed_assets: report
+            .assets
+            .iter()
+            .filter(|a| a.status == "failed")
+            .count(),
+        warnings,
         stages,
         failed_jobs,
         wall_seconds: secs(start.elapsed()),
@@ -869,6 +886,7 @@ type ReadBuild<'a> = dyn FnMut(&ori_graph::Build<'_>) + 'a;
 fn choose_resolutions(
     assets: &[Asset],
     params: &mut [config::StageParams],
+    limits: ori_mesh::Limits,
     run: &mut dyn FnMut(&Graph, &mut ReadBuild<'_>),
 ) -> Vec<Option<AutoReport>> {
     let mut tried: Vec<Vec<(u32, ori_plt::Plt)>> = vec![Vec::new(); assets.len()];
@@ -912,7 +930,7 @@ fn choose_resolutions(
                 }
             })
             .collect();
-        let (graph, jobs) = plan(&planned);
+        let (graph, jobs) = plan(&planned, limits);
         run(&graph, &mut |build| {
             for (&(i, r), j) in batch.iter().zip(&jobs) {
                 let plt = build
@@ -936,6 +954,7 @@ fn choose_resolutions(
 fn choose_trees(
     assets: &[Asset],
     params: &[config::StageParams],
+    limits: ori_mesh::Limits,
     run: &mut dyn FnMut(&Graph, &mut ReadBuild<'_>),
 ) -> Vec<Option<hierarchy::PlannedTree>> {
     use hierarchy::{Measured, PlannedNode, PlannedTree};
@@ -981,7 +1000,7 @@ fn choose_trees(
                 tree: trees[i].clone(),
             })
             .collect();
-        let (graph, jobs) = plan(&planned);
+        let (graph, jobs) = plan(&planned, limits);
         run(&graph, &mut |build| {
             for (&i, j) in batch.iter().zip(&jobs) {
                 let tree = trees[i].as_mut().expect("a hierarchy");
@@ -1036,7 +1055,7 @@ fn choose_trees(
         if tries.is_empty() {
             return trees;
         }
-        let stages = Stages::new();
+        let stages = Stages::new(limits);
         let mut graph = Graph::new();
         let mut clip_jobs = Vec::new();
         for (i, children) in &tries {
@@ -1146,10 +1165,20 @@ pub fn format_summary(s: &BuildSummary) -> String {
             l.seconds
         ));
     }
-    let verb = if s.dry_run { "would run" } else { "built" };
+    if s.dry_run {
+        out.push_str(&format!("{} assets would run", s.assets));
+    } else if s.failed_assets > 0 {
+        out.push_str(&format!(
+            "{} assets built, {} failed",
+            s.assets - s.failed_assets,
+            s.failed_assets
+        ));
+    } else {
+        out.push_str(&format!("{} assets built", s.assets));
+    }
     out.push_str(&format!(
-        "{} assets {verb} in {:.2} s ({} source files hashed)",
-        s.assets, s.wall_seconds, s.sources_hashed
+        " in {:.2} s ({} source files hashed)",
+        s.wall_seconds, s.sources_hashed
     ));
     if let Some(r) = &s.report {
         out.push_str(&format!("; report: {}", r.display()));

@@ -188,6 +188,10 @@ pub struct PackageParams {
     pub depth: DepthFormat,
     /// Every stage parameter that shaped the package, recorded in the manifest.
     pub pipeline: serde_json::Value,
+    /// The GPU adapter selection and PLT were measured on (`--backend gpu`); absent for the
+    /// CPU evaluator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured_on: Option<String>,
 }
 
 /// The tool name and version written into every manifest.
@@ -332,8 +336,12 @@ fn manifest(
             at_least,
             recommended_resolution: plt.recommended_resolution(),
             measured_by: format!(
-                "cpu evaluator ({} linear + {} binary steps, wall threshold {}), {} x {} \
+                "{} ({} linear + {} binary steps, wall threshold {}), {} x {} \
                  orthographic views of the 320 directions",
+                match &params.measured_on {
+                    Some(device) => format!("wgpu renderer on {device}"),
+                    None => "cpu evaluator".to_string(),
+                },
                 params.pipeline["select"]["linear_steps"],
                 params.pipeline["select"]["binary_steps"],
                 params.pipeline["select"]["wall_threshold"],
@@ -381,6 +389,7 @@ pub(crate) fn measuring_package(
         tool: tool(),
         depth: DepthFormat::R8,
         pipeline: serde_json::json!({ "select": select }),
+        measured_on: None,
     };
     let manifest = manifest(&params, "0".repeat(64), set, &selection, &plt);
     let bytes = ori_package::write(&manifest, &textures).map_err(|e| e.to_string())?;

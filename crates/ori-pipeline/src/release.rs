@@ -58,9 +58,16 @@ pub fn package_path(asset: &str) -> String {
     }
 }
 
-/// The release entry of a package, checking the package as a reader would.
+/// The release entry of a package, checking the package as a reader would and that it was
+/// built from the asset `name`.
 pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
     let package = ori_package::read_any(bytes).map_err(|e| format!("invalid package: {e}"))?;
+    let source = &package.root().manifest.source.name;
+    if source != name {
+        return Err(format!(
+            "the package was built from `{source}`, but is listed as `{name}`"
+        ));
+    }
     // A hierarchy's PLT is its root's: the whole object drawn as one ORI.
     let plt = &package.root().manifest.plt;
     Ok(ReleaseEntry {
@@ -78,12 +85,23 @@ pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
     })
 }
 
+/// A release written, and what the user should know about the folder.
+#[derive(Clone, Debug)]
+pub struct Written {
+    pub release: Release,
+    /// Files left alone that look like someone else's (one line each).
+    pub warnings: Vec<String>,
+}
+
 /// Write `packages` (asset name, package bytes; sorted by name) and `release.json` into
-/// `dir`. Packages first, the index last, so the index never names a file not yet written;
-/// `.ori` files of earlier builds that are not part of this release are removed, so the
-/// folder is the same as a clean build's. A package whose bytes are already there is not
-/// rewritten.
-pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Release, (PathBuf, String)> {
+/// `dir`. Packages first, the index last, so the index never names a file not yet written.
+/// The builder removes only what it wrote: the packages the folder's previous `release.json`
+/// lists that are not part of this release, so the folder is the same as a clean build's.
+/// Any other `.ori` file is left alone, with a warning. A package whose bytes are already
+/// there is not rewritten.
+pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Written, (PathBuf, String)> {
+    let mut warnings = Vec::new();
+    let previous = previous_packages(dir, &mut warnings);
     let mut assets = Vec::new();
     let mut seen = BTreeSet::new();
     for (name, bytes) in packages {
@@ -101,12 +119,31 @@ pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Release, (Pat
         }
         assets.push(e);
     }
-    for stale in ori_files(dir) {
-        if !seen.contains(&stale) {
-            let path = dir.join(&stale);
+    for stale in previous.difference(&seen) {
+        let path = dir.join(stale);
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
             std::fs::remove_file(&path)
                 .map_err(|err| (path, format!("cannot remove a stale package: {err}")))?;
         }
+    }
+    let foreign: Vec<String> = ori_files(dir)
+        .into_iter()
+        .filter(|f| !seen.contains(f) && !previous.contains(f))
+        .collect();
+    if !foreign.is_empty() {
+        let shown: Vec<&str> = foreign.iter().take(3).map(String::as_str).collect();
+        warnings.push(format!(
+            "{}: {} .ori file(s) this builder did not write were left alone ({}{}); \
+             is --out another release's folder?",
+            dir.display(),
+            foreign.len(),
+            shown.join(", "),
+            if foreign.len() > shown.len() {
+                ", ..."
+            } else {
+                ""
+            }
+        ));
     }
     let release = Release {
         release_version: 1,
@@ -117,7 +154,41 @@ pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Release, (Pat
     let mut json = serde_json::to_vec_pretty(&release).expect("release serialises");
     json.push(b'\n');
     ori_graph::write_atomic(&path, &json).map_err(|err| (path, format!("cannot write: {err}")))?;
-    Ok(release)
+    Ok(Written { release, warnings })
+}
+
+/// The packages the folder's `release.json` lists, which this builder wrote. Only entries
+/// whose package path is the one their name gives (relative, no `..`, ending in `.ori`) are
+/// taken, so a damaged or hostile index cannot name a file elsewhere.
+fn previous_packages(dir: &Path, warnings: &mut Vec<String>) -> BTreeSet<String> {
+    let index = dir.join(RELEASE_JSON);
+    let Ok(bytes) = std::fs::read(&index) else {
+        return BTreeSet::new();
+    };
+    let Ok(release) = serde_json::from_slice::<Release>(&bytes) else {
+        warnings.push(format!(
+            "{}: not a release index; no earlier package is removed",
+            index.display()
+        ));
+        return BTreeSet::new();
+    };
+    release
+        .assets
+        .into_iter()
+        .map(|e| e.package)
+        .filter(|p| owned_package_path(p))
+        .collect()
+}
+
+/// Whether `package` is a path [`package_path`] can give: relative, `/`-separated, no empty,
+/// `.` or `..` component, ending in `.ori`.
+fn owned_package_path(package: &str) -> bool {
+    package.ends_with(".ori")
+        && !package.starts_with('/')
+        && !package.contains('\\')
+        && package
+            .split('/')
+            .all(|c| !c.is_empty() && c != "." && c != "..")
 }
 
 /// `.ori` files under `dir`, relative, `/` separators, sorted.

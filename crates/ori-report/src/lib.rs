@@ -28,6 +28,44 @@ use serde_json::Value;
 pub use pictures::{Picture, count_colour, error_colour};
 pub use relief::relief_set;
 
+/// How the report reads source models: under the same rules as the build (inside the asset
+/// root, regular files, size and texture limits).
+#[derive(Clone, Debug, Default)]
+pub struct SourceAccess {
+    pub rules: ori_graph::SourceRules,
+    pub limits: ori_mesh::Limits,
+}
+
+impl SourceAccess {
+    fn read(&self, path: &Path) -> Result<Vec<u8>, String> {
+        self.rules
+            .read(path)
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Load a model the way the ingest stage does.
+    fn load(&self, path: &Path) -> Result<ori_mesh::Mesh, String> {
+        let bytes = self.read(path)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let options = ori_mesh::LoadOptions {
+            limits: self.limits,
+            ..Default::default()
+        };
+        let mut resolver = |uri: &str| self.rules.read(&dir.join(uri));
+        ori_mesh::load(path, &bytes, &options, &mut resolver)
+            .map(|loaded| loaded.mesh)
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// A report written: its page, and every package that failed its check against
+/// `release.json` (each naming the file and what is wrong).
+#[derive(Debug)]
+pub struct Written {
+    pub index: PathBuf,
+    pub invalid_packages: Vec<String>,
+}
+
 /// Directions of the side-by-side comparisons (object -> viewer; y is up in most models):
 /// front, right side, from above, and one between impostor directions.
 const VIEWS: [(&str, [f64; 3]); 4] = [
@@ -59,8 +97,8 @@ struct Drawn {
 /// The stamp of an asset's pictures: the drawing version, the package's blake3 (from
 /// `release.json`) and the source model's current content. `None` when the source cannot be
 /// read (the pictures say why).
-fn stamp(package_blake3: &str, source: &Path) -> Option<String> {
-    let source = std::fs::read(source).ok()?;
+fn stamp(package_blake3: &str, source: &Path, access: &SourceAccess) -> Option<String> {
+    let source = access.read(source).ok()?;
     let mut h = blake3::Hasher::new();
     h.update(&PICTURES_VERSION.to_le_bytes());
     h.update(package_blake3.as_bytes());
@@ -107,6 +145,9 @@ pub struct AssetSummary {
     pub pictures: Vec<(String, String)>,
     /// Why some pictures are missing.
     pub notes: Vec<String>,
+    /// Why the package failed its check against `release.json`, if it did.
+    #[serde(skip)]
+    pub invalid: Option<String>,
 }
 
 /// `report/report.json`.
@@ -116,8 +157,13 @@ pub struct ReportSummary {
 }
 
 /// Write `<out_dir>/report/` from the build in `out_dir`, reading source models under
-/// `assets_root`. Returns the path of `index.html`.
-pub fn write_report(out_dir: &Path, assets_root: &Path) -> Result<PathBuf, String> {
+/// `assets_root` through `access`. Every package is checked against `release.json` first; one
+/// that fails is reported in [`Written::invalid_packages`] and gets no pictures.
+pub fn write_report(
+    out_dir: &Path,
+    assets_root: &Path,
+    access: &SourceAccess,
+) -> Result<Written, String> {
     let read_json = |name: &str| -> Result<Value, String> {
         let path = out_dir.join(name);
         let bytes =
@@ -134,14 +180,34 @@ pub fn write_report(out_dir: &Path, assets_root: &Path) -> Result<PathBuf, Strin
     let summaries: Vec<AssetSummary> = assets
         .par_iter()
         .enumerate()
-        .map(|(i, a)| asset_summary(i, a, &release, out_dir, assets_root, &dir))
+        .map(|(i, a)| asset_summary(i, a, &release, out_dir, assets_root, &dir, access))
         .collect();
+    let invalid_packages = summaries.iter().filter_map(|s| s.invalid.clone()).collect();
     let summary = ReportSummary { assets: summaries };
     let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
     write_file(&dir.join("report.json"), &json)?;
     let index = dir.join("index.html");
     write_file(&index, html::page(&summary).as_bytes())?;
-    Ok(index)
+    Ok(Written {
+        index,
+        invalid_packages,
+    })
+}
+
+/// Check a package file against its `release.json` entry (hash, then a validating read).
+fn check_package(path: &Path, entry: &Value) -> Result<(), String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let hash = blake3::hash(&bytes).to_hex();
+    if entry["blake3"].as_str() != Some(hash.as_str()) {
+        return Err(format!(
+            "{}: its blake3 is {hash}, release.json says {}",
+            path.display(),
+            entry["blake3"]
+        ));
+    }
+    ori_package::read_any(&bytes)
+        .map_err(|e| format!("{}: invalid package: {e}", path.display()))?;
+    Ok(())
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), String> {
@@ -155,6 +221,7 @@ fn asset_summary(
     out_dir: &Path,
     assets_root: &Path,
     dir: &Path,
+    access: &SourceAccess,
 ) -> AssetSummary {
     let name = a["name"].as_str().unwrap_or("?").to_string();
     let q = &a["quality"];
@@ -194,10 +261,16 @@ fn asset_summary(
     s.package = entry["package"].as_str().map(String::from);
     s.package_bytes = entry["bytes"].as_u64();
     s.texture_bytes = entry["texture_bytes"].as_u64();
+    let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
+    if let Err(e) = check_package(&package_path, entry) {
+        s.notes.push(format!("no pictures: {e}"));
+        s.invalid = Some(e);
+        return s;
+    }
     let folder = format!("a{index:03}");
     let stamp = entry["blake3"]
         .as_str()
-        .and_then(|b| stamp(b, &assets_root.join(&name)));
+        .and_then(|b| stamp(b, &assets_root.join(&name), access));
     if let Some(d) = stamp
         .as_deref()
         .and_then(|st| kept(&dir.join(&folder), dir, st))
@@ -206,7 +279,14 @@ fn asset_summary(
         s.notes.extend(d.notes);
         return s;
     }
-    match pictures_of(&mut s, out_dir, assets_root, &dir.join(&folder), &folder) {
+    match pictures_of(
+        &mut s,
+        out_dir,
+        assets_root,
+        &dir.join(&folder),
+        &folder,
+        access,
+    ) {
         // Only a complete set is kept: a failure is tried again next time.
         Ok(()) => {
             if let Some(stamp) = stamp {
@@ -235,6 +315,7 @@ fn pictures_of(
     assets_root: &Path,
     folder: &Path,
     rel: &str,
+    access: &SourceAccess,
 ) -> Result<(), String> {
     let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
     let bytes = std::fs::read(&package_path)
@@ -293,17 +374,18 @@ fn pictures_of(
 
     // Pictures that need the source mesh.
     let source = assets_root.join(&m.source.name);
-    let source_bytes = std::fs::read(&source)
-        .map_err(|e| format!("no reference pictures: {}: {e}", source.display()))?;
+    let source_bytes = access
+        .read(&source)
+        .map_err(|e| format!("no reference pictures: {e}"))?;
     if blake3::hash(&source_bytes).to_hex().as_str() != m.source.blake3 {
         return Err(format!(
             "no reference pictures: {} changed since the package was built",
             source.display()
         ));
     }
-    let mesh = ori_mesh::load_file(&source, &Default::default())
-        .map_err(|e| format!("no reference pictures: {e}"))?
-        .mesh;
+    let mesh = access
+        .load(&source)
+        .map_err(|e| format!("no reference pictures: {e}"))?;
     let select = &m.params["select"];
     let params = EvalParams {
         s0: PICTURE_SIZE,
