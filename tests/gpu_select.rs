@@ -7,6 +7,11 @@ use std::fs;
 
 use common::*;
 
+fn measured_by(p: &Project) -> String {
+    let bytes = fs::read(p.path("out/bunny/bunny_npm_lowres.ori")).unwrap();
+    ori_package::read(&bytes).unwrap().manifest.plt.measured_by
+}
+
 fn selection_of(p: &Project) -> Vec<(Vec<u16>, u32)> {
     let bytes = fs::read(p.path("out/bunny/bunny_npm_lowres.ori")).unwrap();
     let package = ori_package::read(&bytes).unwrap();
@@ -24,6 +29,11 @@ fn gpu_selection_matches_the_cpu_and_is_cached_apart() {
     let p = Project::new(&["bunny"]);
     ok(&p.build(&[]));
     let cpu = selection_of(&p);
+    assert!(
+        measured_by(&p).starts_with("cpu evaluator ("),
+        "{}",
+        measured_by(&p)
+    );
 
     let out = p.build(&["--backend", "gpu", "--explain"]);
     let t = ok(&out);
@@ -35,6 +45,9 @@ fn gpu_selection_matches_the_cpu_and_is_cached_apart() {
     let gpu = selection_of(&p);
     let differing = cpu.iter().zip(&gpu).filter(|(a, b)| a != b).count();
     assert_eq!(differing, 0, "{differing} of 320 directions differ");
+    // The package says what measured it.
+    let by = measured_by(&p);
+    assert!(by.starts_with("wgpu renderer on "), "{by}");
 
     // Each backend's results are cached under their own keys.
     assert_eq!(ran(&p.build(&["--backend", "gpu"]), "select"), 0);
