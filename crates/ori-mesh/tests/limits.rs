@@ -2,9 +2,11 @@
 //! stay far inside the defaults; files built to exhaust memory or time fail with an error
 //! naming the limit, before the allocation or the drawing.
 
+mod common;
+
 use std::path::Path;
 
-use ori_mesh::{ErrorKind, LoadOptions, Loaded, MeshError, load, load_file};
+use ori_mesh::{ErrorKind, LoadOptions, Loaded, MeshError, load_file};
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
 
@@ -13,14 +15,8 @@ fn load_obj(
     files: &[(&str, Vec<u8>)],
     options: &LoadOptions,
 ) -> Result<Loaded, MeshError> {
-    let mut resolver = |uri: &str| {
-        files
-            .iter()
-            .find(|(name, _)| *name == uri)
-            .map(|(_, b)| b.clone())
-            .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::NotFound, uri.to_string()))
-    };
-    load(Path::new("m.obj"), bytes, options, &mut resolver)
+    let files: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (*n, b.as_slice())).collect();
+    common::load_from("m.obj", bytes, &files, options)
 }
 
 fn limit_key(e: &MeshError) -> &'static str {
@@ -99,14 +95,7 @@ fn overlapping_slivers_fail_on_depth_complexity_and_long_faces_on_corners() {
 }
 
 fn png(width: u32, height: u32) -> Vec<u8> {
-    let mut bytes = Vec::new();
-    image::GrayImage::new(width, height)
-        .write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .unwrap();
-    bytes
+    common::png(width, height, [128, 128, 128, 255])
 }
 
 #[test]

@@ -3,13 +3,17 @@
 //! files, each of which must load or fail with an error, never panic, and never decode a
 //! texture or build a face past tight limits.
 
-use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::Path;
+mod common;
 
-use ori_mesh::{Limits, LoadOptions, load};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+use ori_mesh::{Limits, LoadOptions};
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
 const SAMPLES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../samples");
+
+/// The files a model references: (reference, bytes).
+type Files = Vec<(&'static str, Vec<u8>)>;
 
 /// xorshift64*: the same mutations on every machine.
 struct Rng(u64);
@@ -82,15 +86,9 @@ fn survives(name: &str, bytes: &[u8], files: &[(&str, Vec<u8>)]) -> Result<(), S
             max_depth_complexity: 64,
         },
     };
+    let files: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (*n, b.as_slice())).collect();
     let ran = catch_unwind(AssertUnwindSafe(|| {
-        let mut resolver = |uri: &str| {
-            files
-                .iter()
-                .find(|(n, _)| *n == uri)
-                .map(|(_, b)| b.clone())
-                .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::NotFound, uri.to_string()))
-        };
-        let _ = load(Path::new(name), bytes, &options, &mut resolver);
+        let _ = common::load_from(name, bytes, &files, &options);
     }));
     ran.map_err(|panic| {
         panic
@@ -107,14 +105,7 @@ fn read(path: &str) -> Vec<u8> {
 
 /// A 4 x 4 texture for the MTL cases.
 fn png() -> Vec<u8> {
-    let mut bytes = Vec::new();
-    image::RgbaImage::from_pixel(4, 4, image::Rgba([200, 100, 50, 255]))
-        .write_to(
-            &mut std::io::Cursor::new(&mut bytes),
-            image::ImageFormat::Png,
-        )
-        .unwrap();
-    bytes
+    common::png(4, 4, [200, 100, 50, 255])
 }
 
 #[test]
@@ -127,7 +118,7 @@ fn damaged_real_models_never_panic_any_loader() {
         b"mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl m\nf 1/1 2/2 3/3\n"
             .to_vec();
     // (model name, its bytes, the files it references, which one is mutated: None = the model)
-    let cases: Vec<(&str, Vec<u8>, Vec<(&str, Vec<u8>)>, Option<usize>)> = vec![
+    let cases: Vec<(&str, Vec<u8>, Files, Option<usize>)> = vec![
         (
             "bunny.obj",
             read(&format!("{MODELS}/stanford/bunny/bunny_npm_lowres.obj")),

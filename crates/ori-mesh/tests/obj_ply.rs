@@ -1,6 +1,8 @@
 //! OBJ/MTL and PLY loading: the real models in `shared/models`, small handwritten files for
 //! each feature, and broken files that must give the right error without panicking.
 
+mod common;
+
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::io;
@@ -16,22 +18,7 @@ const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/model
 
 /// Load `text` as `name`, with `files` as everything the resolver can read.
 fn load_with(name: &str, bytes: &[u8], files: &[(&str, &[u8])]) -> Result<Loaded, MeshError> {
-    let files: HashMap<String, Vec<u8>> = files
-        .iter()
-        .map(|(name, bytes)| (name.to_string(), bytes.to_vec()))
-        .collect();
-    let mut resolver = |uri: &str| {
-        files
-            .get(uri)
-            .cloned()
-            .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("no file `{uri}`")))
-    };
-    ori_mesh::load(
-        Path::new(name),
-        bytes,
-        &LoadOptions::default(),
-        &mut resolver,
-    )
+    common::load_from(name, bytes, files, &LoadOptions::default())
 }
 
 fn load(name: &str, bytes: &[u8]) -> Result<Loaded, MeshError> {

@@ -452,7 +452,7 @@ impl KeyPath {
                         .find(|(k, _)| k.get_ref().as_ref() == key.as_str())?
                         .1
                 }
-                KeySegment::Index(i) => array?.iter().nth(*i)?,
+                KeySegment::Index(i) => array?.get(*i)?,
             };
             span = value.span();
             table = value.get_ref().as_table();
