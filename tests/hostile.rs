@@ -107,6 +107,10 @@ fn assert_refused(p: &Project, out: &Output, hostile: &[(&str, &[&str])]) {
         "the summary counts failed assets apart: {t}"
     );
     let peak = children_peak_rss();
+    eprintln!(
+        "peak resident memory of the builds so far: {} MiB",
+        peak >> 20
+    );
     assert!(peak < 2 << 30, "peak resident memory {peak} bytes");
 }
 
