@@ -40,6 +40,40 @@ impl MeshBuilder {
         index
     }
 
+    /// Check that `vertices` and `triangles` more fit within `limits`, before they are added.
+    pub fn check_room(
+        &self,
+        vertices: usize,
+        triangles: usize,
+        limits: &crate::Limits,
+    ) -> Result<(), ErrorKind> {
+        let checks = [
+            (
+                "the vertex count",
+                self.positions.len().saturating_add(vertices),
+                limits.max_vertices,
+                "[limits] max_vertices",
+            ),
+            (
+                "the triangle count",
+                self.triangles.len().saturating_add(triangles),
+                limits.max_triangles,
+                "[limits] max_triangles",
+            ),
+        ];
+        for (what, value, limit, key) in checks {
+            if value > limit {
+                return Err(ErrorKind::Limit {
+                    what: what.to_string(),
+                    value: value as u64,
+                    limit: limit as u64,
+                    key,
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Append a triangle of already-validated vertex indices.
     pub fn push_triangle(&mut self, corners: [u32; 3], material: u32) {
         self.triangles.push(corners);

@@ -111,6 +111,7 @@ fn load_document(
         textures: HashMap::new(),
         decoded_images: HashMap::new(),
         budget: TextureBudget::new(limits),
+        limits: *limits,
         warned: HashSet::new(),
         skipped_primitives: false,
     };
@@ -417,6 +418,7 @@ struct Loader<'a, 'r> {
     /// A canonical texture holding each decoded image, so an image is decoded only once.
     decoded_images: HashMap<usize, u32>,
     budget: TextureBudget,
+    limits: Limits,
     /// Warnings already given, so an instanced mesh does not repeat them.
     warned: HashSet<String>,
     /// Whether any point or line primitive was skipped, to explain an empty result.
@@ -523,6 +525,8 @@ impl Loader<'_, '_> {
                 count,
             });
         }
+        let corner_count = indices.as_ref().map_or(count, Vec::len);
+        self.builder.check_room(count, corner_count, &self.limits)?;
         let base = self.builder.positions.len();
         if base
             .checked_add(count)
@@ -546,7 +550,6 @@ impl Loader<'_, '_> {
             );
         }
 
-        let corner_count = indices.as_ref().map_or(count, Vec::len);
         let corner = |k: usize| indices.as_ref().map_or(k as u32, |indices| indices[k]);
         let mode = primitive.mode();
         if mode == Mode::Triangles && corner_count % 3 != 0 {

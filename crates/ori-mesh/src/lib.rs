@@ -172,6 +172,10 @@ pub struct Limits {
     pub max_total_texture_pixels: u64,
     /// Corners of one polygon (OBJ and PLY faces are fan-triangulated).
     pub max_face_corners: usize,
+    /// Triangles of the whole model (glTF instances count once per node that draws them).
+    pub max_triangles: usize,
+    /// Vertices of the whole model.
+    pub max_vertices: usize,
     /// [`Mesh::depth_complexity`]: how many layers of surface a ray through the object
     /// crosses on average. Every image of the mesh costs time in proportion to it.
     pub max_depth_complexity: u32,
@@ -183,6 +187,8 @@ impl Default for Limits {
             max_texture_pixels: 8192 * 8192,
             max_total_texture_pixels: 2 * 8192 * 8192,
             max_face_corners: 4096,
+            max_triangles: 10_000_000,
+            max_vertices: 10_000_000,
             max_depth_complexity: 64,
         }
     }

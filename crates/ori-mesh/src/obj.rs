@@ -30,7 +30,7 @@ pub(crate) fn load(
     warnings: &mut Vec<String>,
 ) -> Result<MeshBuilder, MeshError> {
     let mut obj = Obj {
-        max_face_corners: limits.max_face_corners,
+        limits: *limits,
         ..Obj::default()
     };
     let mut library = Library::new(path, limits);
@@ -101,8 +101,7 @@ struct Obj {
     slots: Vec<Slot>,
     slot_of: HashMap<String, usize>,
     current_slot: usize,
-    /// [`Limits::max_face_corners`].
-    max_face_corners: usize,
+    limits: Limits,
 }
 
 impl Default for Obj {
@@ -122,7 +121,7 @@ impl Default for Obj {
             }],
             slot_of: HashMap::new(),
             current_slot: 0,
-            max_face_corners: Limits::default().max_face_corners,
+            limits: Limits::default(),
         }
     }
 }
@@ -208,13 +207,13 @@ impl Obj {
     ) -> Result<(), ErrorKind> {
         let first = self.corners.len();
         for word in args {
-            if self.corners.len() - first == self.max_face_corners {
+            if self.corners.len() - first == self.limits.max_face_corners {
                 self.corners.truncate(first);
                 return Err(syntax(
                     line,
                     format!(
                         "a face has more than {} corners, the limit ([limits] max_face_corners)",
-                        self.max_face_corners
+                        self.limits.max_face_corners
                     ),
                 ));
             }
@@ -307,6 +306,9 @@ impl Obj {
         let positions_only = !self.any_corner_attribute;
         let color = |p: usize| self.any_color.then(|| self.colors[p]);
         if positions_only {
+            builder
+                .check_room(self.positions.len(), 0, &self.limits)
+                .map_err(|k| k.in_file(path))?;
             for (p, &position) in self.positions.iter().enumerate() {
                 builder.push_vertex(position, None, None, color(p));
             }
@@ -331,6 +333,9 @@ impl Obj {
                     m
                 }
             };
+            builder
+                .check_room(face.count, face.count - 2, &self.limits)
+                .map_err(|k| k.in_file(path))?;
             face_vertices.clear();
             for &corner in &self.corners[face.first..face.first + face.count] {
                 let [p, t, n] = corner;

@@ -533,12 +533,17 @@ fn read_body<R: Values>(
             continue;
         }
         match element.name.as_str() {
-            "vertex" => read_vertices(element, &layout, &mut reader, &mut builder)?,
+            "vertex" => {
+                builder.check_room(element.count, 0, limits)?;
+                read_vertices(element, &layout, &mut reader, &mut builder)?
+            }
             "face" if !faces_seen => {
                 faces_seen = true;
+                builder.check_room(0, element.count, limits)?;
                 let faces = Faces {
                     vertex_count,
                     max_corners: limits.max_face_corners,
+                    max_triangles: limits.max_triangles,
                 };
                 read_faces(element, faces, &mut reader, &mut builder, warnings)?;
             }
@@ -642,6 +647,7 @@ fn read_vertices<R: Values>(
 struct Faces {
     vertex_count: usize,
     max_corners: usize,
+    max_triangles: usize,
 }
 
 fn read_faces<R: Values>(
@@ -649,6 +655,7 @@ fn read_faces<R: Values>(
     Faces {
         vertex_count,
         max_corners,
+        max_triangles,
     }: Faces,
     reader: &mut R,
     builder: &mut MeshBuilder,
@@ -707,6 +714,15 @@ fn read_faces<R: Values>(
                     value: n as u64,
                     limit: max_corners as u64,
                     key: "[limits] max_face_corners",
+                });
+            }
+            let triangles = builder.triangles.len() + n as usize - 2;
+            if triangles > max_triangles {
+                return Err(ErrorKind::Limit {
+                    what: format!("face {i}: the triangle count"),
+                    value: triangles as u64,
+                    limit: max_triangles as u64,
+                    key: "[limits] max_triangles",
                 });
             }
             let mut corner = || -> Result<u32, ErrorKind> {

@@ -127,3 +127,55 @@ fn texture_pixels_are_limited_per_image_and_per_model_before_decoding() {
     assert_eq!(limit_key(&e), "[limits] max_total_texture_pixels", "{e}");
     assert!(e.to_string().contains("b.png"), "{e}");
 }
+
+/// A glTF document whose one-triangle mesh is drawn by `nodes` nodes: a few bytes a node.
+fn instanced(nodes: usize) -> String {
+    let list: Vec<String> = (0..nodes)
+        .map(|i| format!("{{\"mesh\":0,\"translation\":[{i},0,0]}}"))
+        .collect();
+    let roots: Vec<String> = (0..nodes).map(|i| i.to_string()).collect();
+    format!(
+        "{{\"asset\":{{\"version\":\"2.0\"}},\
+         \"buffers\":[{{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA\"}}],\
+         \"bufferViews\":[{{\"buffer\":0,\"byteLength\":36}}],\
+         \"accessors\":[{{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}}],\
+         \"meshes\":[{{\"primitives\":[{{\"attributes\":{{\"POSITION\":0}}}}]}}],\
+         \"nodes\":[{}],\"scenes\":[{{\"nodes\":[{}]}}],\"scene\":0}}",
+        list.join(","),
+        roots.join(",")
+    )
+}
+
+#[test]
+fn instances_count_against_the_triangle_and_vertex_limits_before_they_are_built() {
+    let mut options = LoadOptions::default();
+    let gltf = instanced(2000);
+    let mesh = common::load_from("i.gltf", gltf.as_bytes(), &[], &options)
+        .unwrap()
+        .mesh;
+    assert_eq!(mesh.triangle_count(), 2000);
+    options.limits.max_triangles = 1000;
+    let e = common::load_from("i.gltf", gltf.as_bytes(), &[], &options).unwrap_err();
+    assert_eq!(limit_key(&e), "[limits] max_triangles", "{e}");
+    options.limits = ori_mesh::Limits {
+        max_vertices: 5000,
+        ..Default::default()
+    };
+    let e = common::load_from("i.gltf", gltf.as_bytes(), &[], &options).unwrap_err();
+    assert_eq!(limit_key(&e), "[limits] max_vertices", "{e}");
+    // The same limits hold for OBJ and PLY.
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\n".to_string() + &"f 1 2 3\n".repeat(2000);
+    options.limits = ori_mesh::Limits {
+        max_triangles: 1000,
+        ..Default::default()
+    };
+    let e = load_obj(obj.as_bytes(), &[], &options).unwrap_err();
+    assert_eq!(limit_key(&e), "[limits] max_triangles", "{e}");
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 2000\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n"
+        .to_string()
+        + &"3 0 1 2\n".repeat(2000);
+    let e = common::load_from("m.ply", ply.as_bytes(), &[], &options).unwrap_err();
+    assert_eq!(limit_key(&e), "[limits] max_triangles", "{e}");
+}

@@ -83,6 +83,8 @@ fn survives(name: &str, bytes: &[u8], files: &[(&str, Vec<u8>)]) -> Result<(), S
             max_texture_pixels: 1 << 20,
             max_total_texture_pixels: 1 << 21,
             max_face_corners: 4096,
+            max_triangles: 1_000_000,
+            max_vertices: 1_000_000,
             max_depth_complexity: 64,
         },
     };

@@ -39,6 +39,10 @@ pub struct LimitsConfig {
     pub max_total_texture_pixels: u64,
     /// Corners of one polygon.
     pub max_face_corners: usize,
+    /// Triangles of one model.
+    pub max_triangles: usize,
+    /// Vertices of one model.
+    pub max_vertices: usize,
     /// Surface area over the bounding sphere's cross-section (layers an average ray crosses).
     pub max_depth_complexity: u32,
 }
@@ -51,6 +55,8 @@ impl Default for LimitsConfig {
             max_texture_pixels: mesh.max_texture_pixels,
             max_total_texture_pixels: mesh.max_total_texture_pixels,
             max_face_corners: mesh.max_face_corners,
+            max_triangles: mesh.max_triangles,
+            max_vertices: mesh.max_vertices,
             max_depth_complexity: mesh.max_depth_complexity,
         }
     }
@@ -63,6 +69,8 @@ impl LimitsConfig {
             ("max_texture_pixels", self.max_texture_pixels),
             ("max_total_texture_pixels", self.max_total_texture_pixels),
             ("max_face_corners", self.max_face_corners as u64),
+            ("max_triangles", self.max_triangles as u64),
+            ("max_vertices", self.max_vertices as u64),
             ("max_depth_complexity", u64::from(self.max_depth_complexity)),
         ];
         for (key, value) in positive {
@@ -96,6 +104,8 @@ impl LimitsConfig {
             max_texture_pixels: self.max_texture_pixels,
             max_total_texture_pixels: self.max_total_texture_pixels,
             max_face_corners: self.max_face_corners,
+            max_triangles: self.max_triangles,
+            max_vertices: self.max_vertices,
             max_depth_complexity: self.max_depth_complexity,
         }
     }

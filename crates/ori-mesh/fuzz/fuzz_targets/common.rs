@@ -48,6 +48,8 @@ pub fn check(name: &str, bytes: &[u8], files: &[(&str, &[u8])], bin: &[u8]) {
             max_texture_pixels: 1 << 20,
             max_total_texture_pixels: 1 << 21,
             max_face_corners: 4096,
+            max_triangles: 1_000_000,
+            max_vertices: 1_000_000,
             max_depth_complexity: 64,
         },
     };
