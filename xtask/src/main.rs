@@ -211,10 +211,8 @@ fn folders(
 ) -> Result<(PathBuf, PathBuf, ori_report::SourceAccess), String> {
     let c = ori_pipeline::Config::load(config).map_err(|e| e.to_string())?;
     let assets = assets.unwrap_or_else(|| c.resolve(&c.assets.root));
-    let rules = ori_graph::SourceRules::confined(&assets, c.limits.max_file_bytes())
-        .map_err(|e| format!("assets folder {}: {e}", assets.display()))?;
     let access = ori_report::SourceAccess {
-        rules,
+        rules: c.limits.source_rules(&assets).map_err(|e| e.to_string())?,
         limits: c.limits.mesh(),
     };
     Ok((

@@ -64,9 +64,10 @@ impl SourceRules {
         self.root.as_deref()
     }
 
-    /// Check `path` against the rules: `Ok(None)` when there is no such file, else the file's
-    /// metadata. The error says which rule it broke, without naming where it leads.
-    fn check(&self, path: &Path) -> io::Result<Option<fs::Metadata>> {
+    /// Check `path` against the rules: `Ok(None)` when there is no such file, else where it
+    /// resolves to and its metadata. The error says which rule it broke, without naming where
+    /// it leads.
+    fn check(&self, path: &Path) -> io::Result<Option<(PathBuf, fs::Metadata)>> {
         let resolved = match fs::canonicalize(path) {
             Ok(p) => p,
             Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
@@ -91,16 +92,22 @@ impl SourceRules {
                 self.max_file_bytes
             )));
         }
-        Ok(Some(meta))
+        Ok(Some((resolved, meta)))
     }
 
     /// Read a file that passes [`SourceRules::check`]: opened without blocking (a FIFO
     /// swapped in meanwhile is refused, not waited on) and never more than the limit.
     pub fn read(&self, path: &Path) -> io::Result<Vec<u8>> {
-        if self.check(path)?.is_none() {
-            return Err(io::Error::new(io::ErrorKind::NotFound, "no such file"));
+        match self.check(path)? {
+            Some((resolved, _)) => self.read_resolved(&resolved),
+            None => Err(io::Error::new(io::ErrorKind::NotFound, "no such file")),
         }
-        let file = open_nonblocking(path)?;
+    }
+
+    /// Read a path [`SourceRules::check`] resolved (the file it checked, not whatever a link
+    /// in `path` points to by now).
+    fn read_resolved(&self, resolved: &Path) -> io::Result<Vec<u8>> {
+        let file = open_nonblocking(resolved)?;
         if !file.metadata()?.is_file() {
             return Err(refused("it is not a regular file"));
         }
@@ -231,7 +238,7 @@ impl SourceHasher {
     /// Content hash of the file at `path`, or `Ok(None)` if there is no such file; an error
     /// when the file breaks a [`SourceRules`] rule or cannot be read.
     pub fn hash(&self, path: &Path) -> io::Result<Option<ContentHash>> {
-        let Some(meta) = self.rules.check(path)? else {
+        let Some((resolved, meta)) = self.rules.check(path)? else {
             return Ok(None);
         };
         let stamp = stamp(&meta);
@@ -240,7 +247,7 @@ impl SourceHasher {
         {
             return Ok(Some(entry.hash));
         }
-        let hash = ContentHash::of(&self.rules.read(path)?);
+        let hash = ContentHash::of(&self.rules.read_resolved(&resolved)?);
         *self.rehashed.lock().unwrap() += 1;
         self.remember(path, stamp, hash);
         Ok(Some(hash))

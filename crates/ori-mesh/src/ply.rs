@@ -542,8 +542,7 @@ fn read_body<R: Values>(
                 builder.check_room(0, element.count, limits)?;
                 let faces = Faces {
                     vertex_count,
-                    max_corners: limits.max_face_corners,
-                    max_triangles: limits.max_triangles,
+                    limits: *limits,
                 };
                 read_faces(element, faces, &mut reader, &mut builder, warnings)?;
             }
@@ -646,16 +645,14 @@ fn read_vertices<R: Values>(
 #[derive(Clone, Copy)]
 struct Faces {
     vertex_count: usize,
-    max_corners: usize,
-    max_triangles: usize,
+    limits: Limits,
 }
 
 fn read_faces<R: Values>(
     element: &Element,
     Faces {
         vertex_count,
-        max_corners,
-        max_triangles,
+        limits,
     }: Faces,
     reader: &mut R,
     builder: &mut MeshBuilder,
@@ -708,23 +705,15 @@ fn read_faces<R: Values>(
                     "face {i} has {n} corners (at least 3 are needed)"
                 )));
             }
-            if n > max_corners as f64 {
+            if n > limits.max_face_corners as f64 {
                 return Err(ErrorKind::Limit {
                     what: format!("face {i}: its corner count"),
                     value: n as u64,
-                    limit: max_corners as u64,
+                    limit: limits.max_face_corners as u64,
                     key: "[limits] max_face_corners",
                 });
             }
-            let triangles = builder.triangles.len() + n as usize - 2;
-            if triangles > max_triangles {
-                return Err(ErrorKind::Limit {
-                    what: format!("face {i}: the triangle count"),
-                    value: triangles as u64,
-                    limit: max_triangles as u64,
-                    key: "[limits] max_triangles",
-                });
-            }
+            builder.check_room(0, n as usize - 2, &limits)?;
             let mut corner = || -> Result<u32, ErrorKind> {
                 let index = reader.value(index_type).map_err(|e| e.describe(context))?;
                 if index >= 0.0 && index < vertex_count as f64 {

@@ -93,9 +93,10 @@ impl LimitsConfig {
         Ok(())
     }
 
-    /// The largest file, in bytes.
-    pub fn max_file_bytes(&self) -> u64 {
-        self.max_file_mb << 20
+    /// The rules for source files under the assets folder `root` (which must exist).
+    pub fn source_rules(&self, root: &Path) -> Result<ori_graph::SourceRules, PipelineError> {
+        ori_graph::SourceRules::confined(root, self.max_file_mb << 20)
+            .map_err(|e| PipelineError::Assets(format!("assets folder {}: {e}", root.display())))
     }
 
     /// The loader's limits.

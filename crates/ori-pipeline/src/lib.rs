@@ -624,8 +624,7 @@ pub fn build_assets(options: &BuildOptions) -> Result<BuildSummary, PipelineErro
         });
     }
     let limits = config.limits.mesh();
-    let sources = ori_graph::SourceRules::confined(&root, config.limits.max_file_bytes())
-        .map_err(|e| PipelineError::Assets(format!("assets folder {}: {e}", root.display())))?;
+    let sources = config.limits.source_rules(&root)?;
     let cache = Cache::open(&cache_dir).map_err(|e| PipelineError::Output {
         path: cache_dir.clone(),
         message: format!("cannot create the cache folder: {e}"),
