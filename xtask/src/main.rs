@@ -7,13 +7,14 @@ mod compress;
 mod eval_table;
 mod nginx;
 mod preview;
+mod progress;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use ori_graph::ProgressMode;
-use ori_pipeline::{BuildOptions, build_assets, format_summary};
+use ori_pipeline::{BuildOptions, Mode, build_assets, format_summary};
+use progress::{Progress, ProgressMode};
 
 #[derive(Parser)]
 #[command(
@@ -302,15 +303,17 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
         out: args.out,
         cache: args.cache,
         threads: worker_threads(args.jobs),
-        explain: args.explain,
+        mode: match (assemble, args.shard) {
+            (true, _) => Mode::Assemble,
+            (false, Some(shard)) => Mode::Shard(shard),
+            (false, None) => Mode::Release,
+        },
         dry_run: args.dry_run,
-        progress,
         dump_maps: args.dump_maps,
         explode: args.explode,
-        shard: args.shard,
-        assemble,
     };
-    match build_assets(&options) {
+    let observer = Progress::new(progress, args.explain || args.dry_run);
+    match build_assets(&options, &observer) {
         Ok(summary) => {
             for w in &summary.warnings {
                 eprintln!("warning: {w}");

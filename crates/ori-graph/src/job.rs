@@ -1,43 +1,9 @@
-//! Stages, jobs and the graph that connects them.
+//! Jobs and the graph that connects them.
 
-use std::fmt;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use crate::run::JobContext;
-
-/// One step of the pipeline, a pure function of its inputs and parameters.
-///
-/// Implementations live in the crates that own the step; the graph only needs this trait, so
-/// a new stage plugs in without touching this crate.
-pub trait Stage: Send + Sync {
-    /// Stable name; part of every job key and shown in progress and summaries.
-    fn name(&self) -> &'static str;
-    /// Bump whenever the stage's outputs for the same inputs change (a fixed bug, a new field):
-    /// every job of the stage then re-runs.
-    fn version(&self) -> u32;
-    /// Read inputs from `ctx`, compute, and store named outputs with [`JobContext::output`].
-    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError>;
-}
-
-/// A stage failed; the message is shown to the user as is, so it should name the file and
-/// the problem.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct StageError(pub String);
-
-impl StageError {
-    pub fn new(message: impl fmt::Display) -> StageError {
-        StageError(message.to_string())
-    }
-}
-
-impl fmt::Display for StageError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for StageError {}
+use crate::stage::Stage;
 
 /// Index of a job in its [`Graph`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -11,20 +11,17 @@
 mod cache;
 mod hash;
 mod job;
-mod progress;
+mod outcome;
 mod remote;
 mod run;
 mod sources;
+mod stage;
 
 pub use cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, write_atomic};
 pub use hash::{ContentHash, canonical_json, job_key};
-pub use job::{Graph, Input, JobId, JobSpec, Stage, StageError};
-pub use progress::{Progress, ProgressMode};
-pub use remote::{
-    HttpStore, Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore,
-};
-pub use run::{
-    Build, JobContext, JobResult, MAX_THREADS, Observer, Outcome, RunOptions, RunReason, Silent,
-    StageSummary, run,
-};
+pub use job::{Graph, Input, JobId, JobSpec};
+pub use outcome::{JobResult, Observer, Outcome, RunReason, Silent};
+pub use remote::{Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore};
+pub use run::{Build, MAX_THREADS, RunOptions, StageSummary, run};
 pub use sources::{DEFAULT_MAX_FILE_BYTES, RACY_WINDOW, SourceHasher, SourceRules};
+pub use stage::{JobContext, Stage, StageError};

@@ -1,19 +1,20 @@
 //! The scheduler: runs a [`Graph`] against a [`Cache`], in parallel, reusing what it can.
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::io;
 use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError};
+use crate::cache::{ActionEntry, BlobRef, Cache, JobRecord, ReadError};
 use crate::hash::{ContentHash, canonical_json, job_key};
-use crate::job::{Graph, Input, JobId, JobSpec, StageError};
+use crate::job::{Graph, Input, JobId, JobSpec};
+use crate::outcome::{JobResult, Observer, Outcome, RunReason};
 use crate::remote::RemoteCache;
 use crate::sources::{SourceHasher, SourceRules};
+use crate::stage::{JobContext, JobInputs, StageError};
 
 /// How to run a graph.
 #[derive(Clone, Debug, Default)]
@@ -33,96 +34,6 @@ pub struct RunOptions {
 
 /// The most worker threads a run starts, whatever it is asked for.
 pub const MAX_THREADS: usize = 256;
-
-/// Why a job had to run.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum RunReason {
-    /// No earlier run of this (asset, stage) is known to this cache.
-    NewJob,
-    /// The stage's version changed since the last run.
-    StageVersion { from: u32, to: u32 },
-    /// Parameters changed: one `path: old -> new` line each.
-    Params(Vec<String>),
-    /// The content of these inputs changed.
-    Inputs(Vec<String>),
-    /// A file the stage read last time changed, appeared or disappeared.
-    Discovered(String),
-    /// The cached result failed verification.
-    CorruptEntry(String),
-    /// Same key as the last run, but the cache no longer holds its result.
-    EntryMissing,
-    /// Dry run only: an upstream job would run, so this one's inputs are not known yet.
-    UpstreamWouldRun,
-}
-
-impl fmt::Display for RunReason {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            RunReason::NewJob => f.write_str("new job (never built with this cache)"),
-            RunReason::StageVersion { from, to } => {
-                write!(f, "stage version bumped from {from} to {to}")
-            }
-            RunReason::Params(changes) => write!(f, "parameters changed: {}", changes.join(", ")),
-            RunReason::Inputs(names) => write!(f, "new input: {} changed", names.join(", ")),
-            RunReason::Discovered(what) => f.write_str(what),
-            RunReason::CorruptEntry(what) => write!(f, "corrupt cache entry: {what}"),
-            RunReason::EntryMissing => f.write_str("result no longer in the cache"),
-            RunReason::UpstreamWouldRun => f.write_str("an upstream job would run"),
-        }
-    }
-}
-
-/// What happened to a job.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    /// Its result was already in the cache.
-    Reused,
-    /// It ran, for this reason.
-    Ran(RunReason),
-    /// Dry run: it would run, for this reason.
-    WouldRun(RunReason),
-    /// It failed with this message.
-    Failed(String),
-    /// Not attempted because an upstream job failed.
-    Skipped,
-    /// A cached-only run found no result for it, locally or remotely.
-    NotCached,
-}
-
-/// The result of one job.
-#[derive(Clone, Debug)]
-pub struct JobResult {
-    pub outcome: Outcome,
-    /// Named outputs (empty unless reused or ran).
-    pub outputs: BTreeMap<String, BlobRef>,
-    /// Warnings the stage printed (replayed from the cache when reused).
-    pub warnings: Vec<String>,
-    /// Time spent running the stage (zero when reused).
-    pub duration: Duration,
-}
-
-impl JobResult {
-    fn without_outputs(outcome: Outcome) -> JobResult {
-        JobResult {
-            outcome,
-            outputs: BTreeMap::new(),
-            warnings: Vec::new(),
-            duration: Duration::ZERO,
-        }
-    }
-}
-
-/// Told about progress; implementations must be cheap and thread-safe.
-pub trait Observer: Sync {
-    fn job_started(&self, _job: &JobSpec) {}
-    fn job_finished(&self, _job: &JobSpec, _result: &JobResult) {}
-    /// Something the user should see that belongs to no single job outcome.
-    fn note(&self, _message: &str) {}
-}
-
-/// An observer that ignores everything.
-pub struct Silent;
-impl Observer for Silent {}
 
 /// Jobs run and reused, and time spent, for one stage.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -179,6 +90,7 @@ pub fn run<'g>(
         remote: options.remote.clone(),
         observer,
     };
+    observer.run_started(graph);
     if exec.sources.dropped() > 0 {
         observer.note(&format!(
             "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
@@ -206,6 +118,7 @@ pub fn run<'g>(
             cache.stat_memo_path().display()
         ));
     }
+    observer.run_finished();
     Build { exec }
 }
 
@@ -573,16 +486,19 @@ impl<'g> Exec<'g> {
         inputs: &[(String, ContentHash)],
     ) -> Result<ActionEntry, String> {
         let job = self.graph.job(id);
-        let mut ctx = JobContext {
+        let reader = JobReader {
             exec: self,
-            id,
+            job,
             inputs,
-            source_dir: source_dir(job).map(Path::to_path_buf),
-            outputs: BTreeMap::new(),
-            discovered: Vec::new(),
-            warnings: Vec::new(),
         };
+        let mut ctx = JobContext::new(
+            &job.asset,
+            &job.params,
+            &reader,
+            source_dir(job).map(Path::to_path_buf),
+        );
         let ran = catch_unwind(AssertUnwindSafe(|| job.stage.run(&mut ctx)));
+        let left = ctx.finish();
         match ran {
             Ok(Ok(())) => {}
             Ok(Err(e)) => return Err(e.0),
@@ -600,7 +516,7 @@ impl<'g> Exec<'g> {
             }
         }
         let mut outputs = BTreeMap::new();
-        for (name, bytes) in ctx.outputs {
+        for (name, bytes) in left.outputs {
             let blob = self.cache.put_blob(&bytes).map_err(|e| {
                 format!(
                     "cannot write to the cache {}: {e}",
@@ -612,8 +528,8 @@ impl<'g> Exec<'g> {
         Ok(ActionEntry {
             stage: job.stage.name().to_string(),
             outputs,
-            discovered: ctx.discovered,
-            warnings: ctx.warnings,
+            discovered: left.discovered,
+            warnings: left.warnings,
         })
     }
 
@@ -706,51 +622,28 @@ fn param_changes(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String
         .collect()
 }
 
-/// What a running stage sees: its parameters, its inputs, and where to put its outputs.
-pub struct JobContext<'a> {
+/// A running job's view of the scheduler: its inputs by name.
+struct JobReader<'a> {
     exec: &'a Exec<'a>,
-    id: JobId,
+    job: &'a JobSpec,
     inputs: &'a [(String, ContentHash)],
-    source_dir: Option<PathBuf>,
-    outputs: BTreeMap<String, Vec<u8>>,
-    discovered: Vec<DiscoveredFile>,
-    warnings: Vec<String>,
 }
 
-impl JobContext<'_> {
-    fn job(&self) -> &JobSpec {
-        self.exec.graph.job(self.id)
-    }
-
-    /// The asset this job belongs to.
-    pub fn asset(&self) -> &str {
-        &self.job().asset
-    }
-
-    /// The job's parameters.
-    pub fn params(&self) -> &serde_json::Value {
-        &self.job().params
-    }
-
-    /// The path of a source input, for messages and format detection.
-    pub fn source_path(&self, name: &str) -> Option<&Path> {
-        self.job().inputs.iter().find_map(|(n, input)| match input {
+impl JobInputs for JobReader<'_> {
+    fn source_path(&self, name: &str) -> Option<&Path> {
+        self.job.inputs.iter().find_map(|(n, input)| match input {
             Input::Source(path) if n == name => Some(path.as_path()),
             _ => None,
         })
     }
 
-    /// The content hash of the named input (the one its key was computed from), without
-    /// reading it: for stages that record where their inputs came from.
-    pub fn input_hash(&self, name: &str) -> Option<ContentHash> {
-        let job = self.exec.graph.job(self.id);
-        let position = job.inputs.iter().position(|(n, _)| n == name)?;
+    fn input_hash(&self, name: &str) -> Option<ContentHash> {
+        let position = self.job.inputs.iter().position(|(n, _)| n == name)?;
         Some(self.inputs[position].1)
     }
 
-    /// The bytes of the named input, verified against the hash its key was computed from.
-    pub fn input(&mut self, name: &str) -> Result<Vec<u8>, StageError> {
-        let job = self.exec.graph.job(self.id);
+    fn input(&self, name: &str) -> Result<Vec<u8>, StageError> {
+        let job = self.job;
         let position = job.inputs.iter().position(|(n, _)| n == name);
         let Some(position) = position else {
             return Err(StageError(format!(
@@ -781,38 +674,8 @@ impl JobContext<'_> {
         }
     }
 
-    /// Read a file the stage discovered it needs (a glTF buffer, a texture), relative to the
-    /// folder of the job's source file, under the run's [`SourceRules`] (inside the root, a
-    /// regular file, within the size limit; the error names the rule broken). The read is
-    /// recorded: if the file later changes, appears or disappears, the job runs again.
-    pub fn read_discovered(&mut self, relative: &str) -> io::Result<Vec<u8>> {
-        let dir = self.source_dir.as_ref().ok_or_else(|| {
-            io::Error::new(io::ErrorKind::NotFound, "this job has no source folder")
-        })?;
-        let result = self.exec.sources.read(&dir.join(relative));
-        let hash = match &result {
-            Ok(bytes) => Some(ContentHash::of(bytes)),
-            Err(e) if e.kind() == io::ErrorKind::NotFound => None,
-            Err(_) => return result,
-        };
-        let record = DiscoveredFile {
-            path: relative.to_string(),
-            hash,
-        };
-        if !self.discovered.contains(&record) {
-            self.discovered.push(record);
-        }
-        result
-    }
-
-    /// Store a named output.
-    pub fn output(&mut self, name: &str, bytes: Vec<u8>) {
-        self.outputs.insert(name.to_string(), bytes);
-    }
-
-    /// Record a warning for the user; it is replayed whenever the result is reused.
-    pub fn warn(&mut self, message: impl Into<String>) {
-        self.warnings.push(message.into());
+    fn read_file(&self, path: &Path) -> io::Result<Vec<u8>> {
+        self.exec.sources.read(path)
     }
 }
 

@@ -238,7 +238,7 @@ impl RemoteConfig {
     /// The remote cache this configures (reads the token).
     pub fn open(&self) -> Result<ori_graph::RemoteCache, String> {
         let token = self.token()?;
-        let store = ori_graph::HttpStore::new(
+        let store = ori_http_store::HttpStore::new(
             &self.url,
             token.as_deref(),
             std::time::Duration::from_secs_f64(self.timeout_s),
@@ -278,7 +278,7 @@ pub struct StageParams {
     #[serde(default)]
     pub select: ori_select::SelectParams,
     #[serde(default)]
-    pub compress: crate::package::CompressParams,
+    pub compress: crate::stages::compress::CompressParams,
     /// `[plt]`: the target of `bake.resolution = "auto"`.
     #[serde(default)]
     pub plt: ori_plt::PltParams,
@@ -294,6 +294,23 @@ pub struct StageParams {
     /// never share a cache entry.
     #[serde(skip)]
     pub select_device: Option<String>,
+}
+
+impl StageParams {
+    /// The parameters a package records: every stage's, and whether the resolution was
+    /// chosen by `auto`.
+    pub fn recorded(&self) -> serde_json::Value {
+        let mut json = serde_json::to_value(self).expect("parameters serialise to JSON");
+        json["bake"]["resolution_auto"] = serde_json::Value::Bool(self.auto_resolution);
+        let object = json.as_object_mut().expect("an object");
+        if !self.auto_resolution {
+            object.remove("plt");
+        }
+        if !self.hierarchy.enabled {
+            object.remove("hierarchy");
+        }
+        json
+    }
 }
 
 /// `[ingest]`: mesh loading.
@@ -312,10 +329,10 @@ struct Override {
     stages: toml::Table,
 }
 
-/// The file as written; the stage sections are kept as tables so overrides can be merged
-/// into them key by key before they are checked.
+/// The file as written. Every other top-level table is a stage section ([`StageParams`]
+/// names them), kept as a table so overrides can be merged into it key by key before the
+/// whole is checked (an unknown section is reported then, with the valid ones).
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct ConfigFile {
     #[serde(default)]
     assets: AssetsConfig,
@@ -326,46 +343,18 @@ struct ConfigFile {
     #[serde(default)]
     limits: LimitsConfig,
     #[serde(default)]
-    ingest: Option<toml::Table>,
-    #[serde(default)]
-    views: Option<toml::Table>,
-    #[serde(default)]
-    place: Option<toml::Table>,
-    #[serde(default)]
-    bake: Option<toml::Table>,
-    #[serde(default)]
-    select: Option<toml::Table>,
-    #[serde(default)]
-    compress: Option<toml::Table>,
-    #[serde(default)]
-    plt: Option<toml::Table>,
-    #[serde(default)]
-    hierarchy: Option<toml::Table>,
-    #[serde(default)]
     overrides: Vec<OverrideFile>,
+    #[serde(flatten)]
+    stages: toml::Table,
 }
 
+/// One `[[overrides]]` table as written: a glob, and stage sections like the file's.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct OverrideFile {
     /// Glob over asset paths relative to the assets root, e.g. `trees/**`.
     assets: String,
-    #[serde(default)]
-    ingest: Option<toml::Table>,
-    #[serde(default)]
-    views: Option<toml::Table>,
-    #[serde(default)]
-    place: Option<toml::Table>,
-    #[serde(default)]
-    bake: Option<toml::Table>,
-    #[serde(default)]
-    select: Option<toml::Table>,
-    #[serde(default)]
-    compress: Option<toml::Table>,
-    #[serde(default)]
-    plt: Option<toml::Table>,
-    #[serde(default)]
-    hierarchy: Option<toml::Table>,
+    #[serde(flatten)]
+    stages: toml::Table,
 }
 
 /// A glob where `*` stays within one path component and `**` crosses them.
@@ -374,17 +363,6 @@ pub(crate) fn glob(pattern: &str) -> Result<GlobMatcher, globset::Error> {
         .literal_separator(true)
         .build()?
         .compile_matcher())
-}
-
-/// The stage sections present in a file (or an override), by name.
-fn stage_tables(sections: [(&str, Option<toml::Table>); 8]) -> toml::Table {
-    let mut t = toml::Table::new();
-    for (name, section) in sections {
-        if let Some(section) = section {
-            t.insert(name.into(), toml::Value::Table(section));
-        }
-    }
-    t
 }
 
 /// Whether the override's own tables set the key at `path`.
@@ -558,31 +536,13 @@ impl Config {
             message,
         };
         let file: ConfigFile = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
-        let stages = stage_tables([
-            ("ingest", file.ingest),
-            ("views", file.views),
-            ("place", file.place),
-            ("bake", file.bake),
-            ("select", file.select),
-            ("compress", file.compress),
-            ("plt", file.plt),
-            ("hierarchy", file.hierarchy),
-        ]);
+        let stages = file.stages;
         to_params_at(stages.clone()).map_err(|e| fail(e.describe(text)))?;
         let mut overrides = Vec::new();
         for (i, o) in file.overrides.into_iter().enumerate() {
             let what = format!("[[overrides]] #{} (assets = {:?})", i + 1, o.assets);
             let matcher = glob(&o.assets).map_err(|e| fail(format!("{what}: {e}")))?;
-            let over = stage_tables([
-                ("ingest", o.ingest),
-                ("views", o.views),
-                ("place", o.place),
-                ("bake", o.bake),
-                ("select", o.select),
-                ("compress", o.compress),
-                ("plt", o.plt),
-                ("hierarchy", o.hierarchy),
-            ]);
+            let over = o.stages;
             let mut merged = stages.clone();
             merge(&mut merged, &over);
             to_params_at(merged).map_err(|mut e| {

@@ -38,7 +38,7 @@ pub fn select(
     let evaluator = Evaluator::new(mesh, set, &params.eval_params()).map_err(|e| e.to_string())?;
     // The renderer loads packages: wrap the maps in one (exact R8 depth, which is all that
     // coverage reads; quickly compressed colour and normal; a placeholder table).
-    let package = crate::package::measuring_package(set, params)?;
+    let package = crate::stages::package::measuring_package(set, params)?;
     let mut ori = renderer.load_package(&package).map_err(|e| e.to_string())?;
     ori.set_march(ori_render::MarchParams {
         linear_steps: params.linear_steps,

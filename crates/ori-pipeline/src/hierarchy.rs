@@ -1,5 +1,6 @@
-//! Hierarchical ORIs (`[hierarchy]`, ORI paper section 5): the clip and hierarchy stages, and
-//! the search that decides each tree's shape by measuring node PLTs through the graph.
+//! Hierarchical ORIs (`[hierarchy]`, ORI paper section 5): the shape of a tree and the steps
+//! of the search that decides it by measuring node PLTs through the graph (`search.rs`); the
+//! clip and hierarchy stages are in `stages/`.
 //!
 //! A tree starts as its root: the asset's ordinary chain (so a hierarchy whose root already
 //! reaches the target costs nothing more than a single ORI). A node whose PLT is below
@@ -9,14 +10,9 @@
 //! bake, select, plt, compress, package), each job cached under its own key, so an edit that
 //! changes only some cells' meshes rebuilds only those nodes' chains and the hierarchy job.
 
-use ori_graph::{JobContext, Stage, StageError};
 use ori_hierarchy::Cell;
-use ori_package::{HierarchyManifest, HierarchyNode, Source, SplitKind};
+use ori_package::SplitKind;
 use serde::{Deserialize, Serialize};
-
-use crate::ingest::MESH;
-use crate::package::PACKAGE;
-use crate::stages::params;
 
 /// `[hierarchy]`: build a tree of ORIs instead of one.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -71,37 +67,6 @@ impl HierarchyParams {
     }
 }
 
-/// The parameters of a clip job: the box the mesh is clipped to (the cell, inflated).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ClipParams {
-    pub min: [f64; 3],
-    pub max: [f64; 3],
-}
-
-/// Clips the asset's mesh to a box: the mesh of one hierarchy node. Its output is empty
-/// when nothing of the mesh is inside (the node is then dropped).
-pub struct ClipStage;
-
-impl Stage for ClipStage {
-    fn name(&self) -> &'static str {
-        "clip"
-    }
-
-    fn version(&self) -> u32 {
-        1
-    }
-
-    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
-        let p: ClipParams = params(ctx)?;
-        let mesh = crate::stages::mesh(ctx)?;
-        let bytes =
-            ori_mesh::clip_to_box(&mesh, p.min, p.max).map_or_else(Vec::new, |m| m.encode());
-        ctx.output(MESH, bytes);
-        Ok(())
-    }
-}
-
 /// One node of a decided tree.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlannedNode {
@@ -120,87 +85,6 @@ pub struct PlannedNode {
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlannedTree {
     pub nodes: Vec<PlannedNode>,
-}
-
-/// Parameters of the hierarchy job: the tree, and what its manifest records.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TreeParams {
-    pub name: String,
-    pub tool: String,
-    pub split: SplitKind,
-    pub target_px: f64,
-    /// Per node: `[min, max]` and its children.
-    pub nodes: Vec<([[f64; 3]; 2], Vec<u32>)>,
-}
-
-impl TreeParams {
-    pub fn new(name: &str, params: &HierarchyParams, tree: &PlannedTree) -> TreeParams {
-        TreeParams {
-            name: name.to_string(),
-            tool: crate::package::tool(),
-            split: params.split,
-            target_px: params.target_px,
-            nodes: tree
-                .nodes
-                .iter()
-                .map(|n| {
-                    (
-                        n.cell.bounds(),
-                        n.children.iter().map(|&c| c as u32).collect(),
-                    )
-                })
-                .collect(),
-        }
-    }
-}
-
-/// The input name of node `i`'s package in the hierarchy job.
-pub fn node_input(i: usize) -> String {
-    format!("node{i}")
-}
-
-/// Gathers the node packages into one hierarchy package (format version 2).
-pub struct HierarchyStage;
-
-impl Stage for HierarchyStage {
-    fn name(&self) -> &'static str {
-        "hierarchy"
-    }
-
-    fn version(&self) -> u32 {
-        1
-    }
-
-    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
-        let p: TreeParams = params(ctx)?;
-        let source = ctx
-            .input_hash("source")
-            .ok_or_else(|| StageError::new("the hierarchy job has no source input"))?;
-        let mut packages = Vec::with_capacity(p.nodes.len());
-        for i in 0..p.nodes.len() {
-            packages.push(ctx.input(&node_input(i))?.to_vec());
-        }
-        let manifest = HierarchyManifest {
-            format_version: ori_package::HIERARCHY_FORMAT_VERSION,
-            tool: p.tool,
-            source: Source {
-                name: p.name,
-                blake3: source.to_hex().to_string(),
-            },
-            split: p.split,
-            target_px: p.target_px,
-            nodes: p
-                .nodes
-                .into_iter()
-                .map(|(bounds, children)| HierarchyNode::new(bounds, children))
-                .collect(),
-        };
-        let bytes = ori_package::write_hierarchy(&manifest, &packages)
-            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
-        ctx.output(PACKAGE, bytes);
-        Ok(())
-    }
 }
 
 /// What the tree search needs measured for one node.

@@ -7,56 +7,9 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use serde::{Deserialize, Serialize};
 use walkdir::WalkDir;
 
-/// The name of the release index in the output folder.
-pub const RELEASE_JSON: &str = "release.json";
-
-/// `release.json`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Release {
-    /// Layout version of this file.
-    pub release_version: u32,
-    /// The tool that wrote the packages (`ori-pipeline <version>`).
-    pub tool: String,
-    /// Every package, sorted by asset name.
-    pub assets: Vec<ReleaseEntry>,
-}
-
-/// One package of a release.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ReleaseEntry {
-    /// The asset's name (its path under the assets root).
-    pub name: String,
-    /// The package file, relative to the release folder, `/` separators.
-    pub package: String,
-    /// blake3 of the package file, lowercase hex.
-    pub blake3: String,
-    /// Size of the package file.
-    pub bytes: u64,
-    /// Projected length threshold in pixels (a lower bound when `plt_at_least`).
-    pub plt: f64,
-    pub plt_at_least: bool,
-    /// Bytes of texture data in the package (every node's, for a hierarchy).
-    pub texture_bytes: u64,
-    /// A hierarchy's node count (absent for a single ORI).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub nodes: Option<usize>,
-}
-
-/// The package file of an asset: its name with the extension replaced by `.ori`.
-pub fn package_path(asset: &str) -> String {
-    let (dir, file) = asset.rsplit_once('/').map_or(("", asset), |(d, f)| (d, f));
-    let stem = file.rsplit_once('.').map_or(file, |(stem, _)| stem);
-    if dir.is_empty() {
-        format!("{stem}.ori")
-    } else {
-        format!("{dir}/{stem}.ori")
-    }
-}
+pub use ori_release::{RELEASE_JSON, Release, ReleaseEntry, package_path};
 
 /// The release entry of a package, checking the package as a reader would and that it was
 /// built from the asset `name`.
@@ -147,7 +100,7 @@ pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Written, (Pat
     }
     let release = Release {
         release_version: 1,
-        tool: crate::package::tool(),
+        tool: crate::stages::package::tool(),
         assets,
     };
     let path = dir.join(RELEASE_JSON);
@@ -271,18 +224,5 @@ pub fn verify(dir: &Path) -> Result<usize, Vec<String>> {
         Ok(release.assets.len())
     } else {
         Err(problems)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::package_path;
-
-    #[test]
-    fn package_paths_replace_the_extension() {
-        assert_eq!(package_path("bunny/bunny.obj"), "bunny/bunny.ori");
-        assert_eq!(package_path("a.b/c.glb"), "a.b/c.ori");
-        assert_eq!(package_path("noext"), "noext.ori");
-        assert_eq!(package_path("x/y.tar.gz"), "x/y.tar.ori");
     }
 }

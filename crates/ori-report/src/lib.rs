@@ -21,9 +21,9 @@ mod relief;
 use std::path::{Path, PathBuf};
 
 use ori_eval::{EvalParams, Evaluator};
+use ori_release::{AssetReport, BuildReport, RELEASE_JSON, REPORT_JSON, Release, ReleaseEntry};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use serde_json::Value;
 
 pub use pictures::{Picture, count_colour, error_colour};
 pub use relief::relief_set;
@@ -164,20 +164,12 @@ pub fn write_report(
     assets_root: &Path,
     access: &SourceAccess,
 ) -> Result<Written, String> {
-    let read_json = |name: &str| -> Result<Value, String> {
-        let path = out_dir.join(name);
-        let bytes =
-            std::fs::read(&path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-        serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))
-    };
-    let build = read_json("report.json")?;
-    let release = read_json("release.json")?;
+    let build: BuildReport = read_json(&out_dir.join(REPORT_JSON))?;
+    let release: Release = read_json(&out_dir.join(RELEASE_JSON))?;
     let dir = out_dir.join("report");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let assets: Vec<&Value> = build["assets"]
-        .as_array()
-        .map_or(Vec::new(), |a| a.iter().collect());
-    let summaries: Vec<AssetSummary> = assets
+    let summaries: Vec<AssetSummary> = build
+        .assets
         .par_iter()
         .enumerate()
         .map(|(i, a)| asset_summary(i, a, &release, out_dir, assets_root, &dir, access))
@@ -194,9 +186,15 @@ pub fn write_report(
     })
 }
 
+/// A JSON file of the output folder, read with its type.
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    serde_json::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Whether the package file has the size `release.json` lists and was not written after the
 /// pictures in `folder` were drawn from it.
-fn unchanged_since_drawn(package: &Path, entry: &Value, folder: &Path) -> bool {
+fn unchanged_since_drawn(package: &Path, entry: &ReleaseEntry, folder: &Path) -> bool {
     let (Ok(p), Ok(d)) = (
         std::fs::metadata(package),
         std::fs::metadata(folder.join("pictures.json")),
@@ -207,18 +205,18 @@ fn unchanged_since_drawn(package: &Path, entry: &Value, folder: &Path) -> bool {
         (Ok(p), Ok(d)) => p <= d,
         _ => false,
     };
-    older && entry["bytes"].as_u64() == Some(p.len())
+    older && entry.bytes == p.len()
 }
 
 /// Check a package file against its `release.json` entry (hash, then a validating read).
-fn check_package(path: &Path, entry: &Value) -> Result<(), String> {
+fn check_package(path: &Path, entry: &ReleaseEntry) -> Result<(), String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
     let hash = blake3::hash(&bytes).to_hex();
-    if entry["blake3"].as_str() != Some(hash.as_str()) {
+    if entry.blake3 != hash.as_str() {
         return Err(format!(
-            "{}: its blake3 is {hash}, release.json says {}",
+            "{}: its blake3 is {hash}, release.json says {:?}",
             path.display(),
-            entry["blake3"]
+            entry.blake3
         ));
     }
     ori_package::read_any(&bytes)
@@ -232,56 +230,48 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), String> {
 
 fn asset_summary(
     index: usize,
-    a: &Value,
-    release: &Value,
+    a: &AssetReport,
+    release: &Release,
     out_dir: &Path,
     assets_root: &Path,
     dir: &Path,
     access: &SourceAccess,
 ) -> AssetSummary {
-    let name = a["name"].as_str().unwrap_or("?").to_string();
-    let q = &a["quality"];
+    let name = a.name.clone();
+    let q = a.quality.as_ref();
     let mut s = AssetSummary {
         name: name.clone(),
-        status: a["status"].as_str().unwrap_or("?").to_string(),
-        error: a["error"].as_str().map(String::from),
-        faces: a["mesh"]["triangles"].as_u64(),
-        resolution: a["resolution"].as_u64().map(|r| r as u32),
-        plt: q["plt"].as_f64(),
-        coverage_error_min_percent: q["coverage_error_min_percent"].as_f64(),
-        coverage_error_max_percent: q["coverage_error_max_percent"].as_f64(),
-        coverage_error_avg_percent: q["coverage_error_avg_percent"].as_f64(),
-        impostors_per_view: q["impostors_per_view"].as_f64(),
-        views_by_impostor_count: q["views_by_impostor_count"]
-            .as_array()
-            .map_or(Vec::new(), |v| v.iter().filter_map(Value::as_u64).collect()),
-        jobs: a["jobs"].as_array().map_or(Vec::new(), |jobs| {
-            jobs.iter()
-                .map(|j| {
-                    (
-                        j["stage"].as_str().unwrap_or("?").to_string(),
-                        j["status"].as_str().unwrap_or("?").to_string(),
-                        j["seconds"].as_f64().unwrap_or(0.0),
-                    )
-                })
+        status: a.status.as_str().to_string(),
+        error: a.error.clone(),
+        faces: a.mesh.as_ref().map(|m| m.triangles as u64),
+        resolution: Some(a.resolution),
+        plt: q.map(|q| q.plt),
+        coverage_error_min_percent: q.map(|q| q.coverage_error_min_percent),
+        coverage_error_max_percent: q.map(|q| q.coverage_error_max_percent),
+        coverage_error_avg_percent: q.map(|q| q.coverage_error_avg_percent),
+        impostors_per_view: q.map(|q| q.impostors_per_view),
+        views_by_impostor_count: q.map_or(Vec::new(), |q| {
+            q.views_by_impostor_count
+                .iter()
+                .map(|&n| u64::from(n))
                 .collect()
         }),
+        jobs: a
+            .jobs
+            .iter()
+            .map(|j| (j.stage.clone(), j.status.as_str().to_string(), j.seconds))
+            .collect(),
         ..AssetSummary::default()
     };
-    let entry = release["assets"]
-        .as_array()
-        .and_then(|r| r.iter().find(|e| e["name"] == name.as_str()));
-    let Some(entry) = entry else {
+    let Some(entry) = release.assets.iter().find(|e| e.name == name) else {
         return s;
     };
-    s.package = entry["package"].as_str().map(String::from);
-    s.package_bytes = entry["bytes"].as_u64();
-    s.texture_bytes = entry["texture_bytes"].as_u64();
-    let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
+    s.package = Some(entry.package.clone());
+    s.package_bytes = Some(entry.bytes);
+    s.texture_bytes = Some(entry.texture_bytes);
+    let package_path = out_dir.join(&entry.package);
     let folder = format!("a{index:03}");
-    let stamp = entry["blake3"]
-        .as_str()
-        .and_then(|b| stamp(b, &assets_root.join(&name), access));
+    let stamp = stamp(&entry.blake3, &assets_root.join(&name), access);
     // Pictures are reused only while the package file is the one they were drawn from (its
     // size as listed, not written since); any other package is checked in full first.
     if let Some(d) = stamp

@@ -2,11 +2,10 @@
 //! per event when stdout is not a terminal or `CI` is set (logs stay readable).
 
 use std::io::IsTerminal;
+use std::sync::Mutex;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-
-use crate::job::{Graph, JobSpec};
-use crate::run::{JobResult, Observer, Outcome};
+use ori_graph::{Graph, JobResult, JobSpec, Observer, Outcome};
 
 /// How progress is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,22 +30,51 @@ impl ProgressMode {
 }
 
 /// An [`Observer`] that shows progress, warnings, errors and (with `explain`) why jobs ran.
+/// A build runs several graphs (trial runs, then the final one): each gets fresh bars.
 pub struct Progress {
     mode: ProgressMode,
     explain: bool,
     multi: MultiProgress,
+    bars: Mutex<Option<Bars>>,
+}
+
+/// The bars of the graph being run.
+struct Bars {
     overall: ProgressBar,
     stages: Vec<(&'static str, ProgressBar)>,
 }
 
 impl Progress {
-    pub fn new(graph: &Graph, mode: ProgressMode, explain: bool) -> Progress {
+    pub fn new(mode: ProgressMode, explain: bool) -> Progress {
         let target = if mode == ProgressMode::Bars {
             ProgressDrawTarget::stderr()
         } else {
             ProgressDrawTarget::hidden()
         };
-        let multi = MultiProgress::with_draw_target(target);
+        Progress {
+            mode,
+            explain,
+            multi: MultiProgress::with_draw_target(target),
+            bars: Mutex::new(None),
+        }
+    }
+
+    fn bars(&self) -> std::sync::MutexGuard<'_, Option<Bars>> {
+        self.bars.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn print(&self, line: &str) {
+        match self.mode {
+            ProgressMode::Bars => {
+                let _ = self.multi.println(line);
+            }
+            ProgressMode::Lines | ProgressMode::Quiet => println!("{line}"),
+        }
+    }
+}
+
+impl Bars {
+    fn new(multi: &MultiProgress, graph: &Graph) -> Bars {
         let style = |template: &str| {
             ProgressStyle::with_template(template)
                 .expect("valid progress template")
@@ -66,52 +94,53 @@ impl Progress {
                 (name, bar)
             })
             .collect();
-        Progress {
-            mode,
-            explain,
-            multi,
-            overall,
-            stages,
-        }
+        Bars { overall, stages }
     }
 
-    fn print(&self, line: &str) {
-        match self.mode {
-            ProgressMode::Bars => {
-                let _ = self.multi.println(line);
-            }
-            ProgressMode::Lines | ProgressMode::Quiet => println!("{line}"),
-        }
-    }
-
-    fn stage_bar(&self, stage: &str) -> Option<&ProgressBar> {
+    fn stage(&self, stage: &str) -> Option<&ProgressBar> {
         self.stages
             .iter()
             .find(|(n, _)| *n == stage)
             .map(|(_, b)| b)
     }
 
-    /// Remove the bars (call before printing the summary).
-    pub fn finish(&self) {
+    fn clear(&self, multi: &MultiProgress) {
         for (_, bar) in &self.stages {
             bar.finish_and_clear();
         }
         self.overall.finish_and_clear();
-        let _ = self.multi.clear();
+        let _ = multi.clear();
     }
 }
 
 impl Observer for Progress {
+    fn run_started(&self, graph: &Graph) {
+        let mut bars = self.bars();
+        if let Some(old) = bars.take() {
+            old.clear(&self.multi);
+        }
+        *bars = Some(Bars::new(&self.multi, graph));
+    }
+
+    /// Remove the bars (the summary is printed after the last run).
+    fn run_finished(&self) {
+        if let Some(old) = self.bars().take() {
+            old.clear(&self.multi);
+        }
+    }
+
     fn job_started(&self, job: &JobSpec) {
-        if let Some(bar) = self.stage_bar(job.stage.name()) {
+        if let Some(bar) = self.bars().as_ref().and_then(|b| b.stage(job.stage.name())) {
             bar.set_message(job.asset.clone());
         }
     }
 
     fn job_finished(&self, job: &JobSpec, result: &JobResult) {
-        self.overall.inc(1);
-        if let Some(bar) = self.stage_bar(job.stage.name()) {
-            bar.inc(1);
+        if let Some(bars) = self.bars().as_ref() {
+            bars.overall.inc(1);
+            if let Some(bar) = bars.stage(job.stage.name()) {
+                bar.inc(1);
+            }
         }
         let what = format!("[{}] {}", job.stage.name(), job.asset);
         let lines = self.mode == ProgressMode::Lines;

@@ -1,179 +1,34 @@
-//! The last two stages: texture compression (`[compress]`) and packaging. Compression turns
-//! each relief map into three KTX2 textures (the guide's 2.5 bytes per texel: R8 depth, BC5
-//! normal, BC1 albedo; BC4 depth on request); packaging gathers them with the frames, the
-//! selection table and the PLT into one `.ori` file (`ori_package`, `docs/FORMAT.md`).
+//! package: the `.ori` file (`ori_package`, `docs/FORMAT.md`) from the maps' frames, the
+//! selection table, the PLT and the textures.
 
-use ori_bake::{EMPTY_DEPTH, ReliefMap, ReliefSet};
-use ori_graph::{JobContext, Stage, StageError};
+use ori_bake::{ReliefMap, ReliefSet};
+use ori_graph::{JobContext, StageError};
 use ori_package::{
-    ImpostorTextures, Manifest, PltInfo, SelectionEntry, SelectionTable, Source, Sphere,
-    TextureFormat, TextureRef,
+    Manifest, PltInfo, SelectionEntry, SelectionTable, Source, Sphere, TextureFormat, TextureRef,
 };
-use ori_texture::{Ktx2, Quality, RgbaImage, VkFormat};
 use serde::{Deserialize, Serialize};
 
-use crate::stages::{MAPS, PLT, SELECTION, params};
+use super::bake::MAPS;
+use super::compress::{CompressParams, CompressQuality, DepthFormat, TEXTURES, compress_map};
+use super::plt::PLT;
+use super::select::SELECTION;
+use super::{Artifact, PipelineStage, Slot, in_asset};
 
-/// Output names.
-pub const TEXTURES: &str = "textures";
-pub const PACKAGE: &str = "package";
+/// The package file's bytes.
+pub const PACKAGE: Slot<PackageBytes> = Slot::new("package");
 
-/// `[compress]`: how relief maps become GPU textures.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CompressParams {
-    /// Encoder effort: "high" (packages) or "fast" (previews); both are deterministic.
-    pub quality: CompressQuality,
-    /// Depth format: "r8" (exact, 1 byte per texel) or "bc4" (0.5 byte, lossy).
-    pub depth: DepthFormat,
-}
+/// A package file (single or hierarchy), as written.
+pub struct PackageBytes(pub Vec<u8>);
 
-impl Default for CompressParams {
-    fn default() -> Self {
-        CompressParams {
-            quality: CompressQuality::High,
-            depth: DepthFormat::R8,
-        }
-    }
-}
-
-/// Encoder effort, as in `ori_texture::Quality`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CompressQuality {
-    High,
-    Fast,
-}
-
-/// How the depth map is stored.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DepthFormat {
-    R8,
-    Bc4,
-}
-
-impl DepthFormat {
-    fn texture_format(self) -> TextureFormat {
-        match self {
-            DepthFormat::R8 => TextureFormat::R8,
-            DepthFormat::Bc4 => TextureFormat::Bc4,
-        }
-    }
-}
-
-/// The three textures of one relief map, as KTX2 files.
-fn compress_map(map: &ReliefMap, params: &CompressParams) -> Result<ImpostorTextures, String> {
-    let n = map.size();
-    let quality = match params.quality {
-        CompressQuality::High => Quality::High,
-        CompressQuality::Fast => Quality::Fast,
-    };
-    let err = |e: ori_texture::TextureError| e.to_string();
-    let ktx = |format: VkFormat, data: Vec<u8>| -> Result<Vec<u8>, String> {
-        Ok(Ktx2::new(format, n, n, vec![data]).map_err(err)?.to_bytes())
-    };
-    let depth = match params.depth {
-        DepthFormat::R8 => ktx(VkFormat::R8Unorm, map.depth.clone())?,
-        DepthFormat::Bc4 => ktx(
-            VkFormat::Bc4Unorm,
-            ori_texture::encode_bc4(&map.depth, n, n, quality).map_err(err)?,
-        )?,
-    };
-    let xy: Vec<u8> = map.normal.iter().flatten().copied().collect();
-    let normal = ktx(
-        VkFormat::Bc5Unorm,
-        ori_texture::encode_bc5(&xy, n, n, quality).map_err(err)?,
-    )?;
-    let rgba: Vec<u8> = map
-        .albedo
-        .iter()
-        .flat_map(|c| [c[0], c[1], c[2], 255])
-        .collect();
-    // Empty texels are never drawn: they do not constrain the colour endpoints.
-    let mask: Vec<bool> = map.depth.iter().map(|&d| d != EMPTY_DEPTH).collect();
-    let image = RgbaImage::new(n, n, rgba).map_err(err)?;
-    let albedo = ktx(
-        VkFormat::Bc1RgbSrgb,
-        ori_texture::encode_bc1(&image, Some(&mask), quality).map_err(err)?,
-    )?;
-    Ok(ImpostorTextures {
-        depth,
-        normal,
-        albedo,
-    })
-}
-
-/// The `textures` artifact: for each map, its depth, normal and albedo KTX2 files, each as a
-/// little-endian `u64` length and the bytes, after a `u32` map count.
-fn encode_textures(textures: &[ImpostorTextures]) -> Vec<u8> {
-    let mut out = (textures.len() as u32).to_le_bytes().to_vec();
-    for t in textures {
-        for file in [&t.depth, &t.normal, &t.albedo] {
-            out.extend_from_slice(&(file.len() as u64).to_le_bytes());
-            out.extend_from_slice(file);
-        }
-    }
-    out
-}
-
-fn decode_textures(bytes: &[u8]) -> Result<Vec<ImpostorTextures>, String> {
-    let bad = || "the textures artifact is truncated".to_string();
-    let mut rest = bytes;
-    let mut take = |n: usize| -> Result<&[u8], String> {
-        if rest.len() < n {
-            return Err(bad());
-        }
-        let (head, tail) = rest.split_at(n);
-        rest = tail;
-        Ok(head)
-    };
-    let count = u32::from_le_bytes(take(4)?.try_into().expect("4 bytes"));
-    let mut out = Vec::new();
-    for _ in 0..count {
-        let mut file = || -> Result<Vec<u8>, String> {
-            let len = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
-            Ok(take(usize::try_from(len).map_err(|_| bad())?)?.to_vec())
-        };
-        out.push(ImpostorTextures {
-            depth: file()?,
-            normal: file()?,
-            albedo: file()?,
-        });
-    }
-    Ok(out)
-}
-
-/// Compresses every relief map (`[compress]` parameters).
-pub struct CompressStage;
-
-impl Stage for CompressStage {
-    fn name(&self) -> &'static str {
-        "compress"
+impl Artifact for PackageBytes {
+    fn encode(&self) -> Vec<u8> {
+        self.0.clone()
     }
 
-    fn version(&self) -> u32 {
-        1
+    /// Taken as it is: the release checks it as a reader would (`release::entry`).
+    fn decode(bytes: &[u8]) -> Result<PackageBytes, String> {
+        Ok(PackageBytes(bytes.to_vec()))
     }
-
-    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
-        let params: CompressParams = params(ctx)?;
-        let set = decode_maps(ctx)?;
-        let textures = set
-            .maps
-            .iter()
-            .enumerate()
-            .map(|(i, map)| compress_map(map, &params).map_err(|e| format!("map {i}: {e}")))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))?;
-        ctx.output(TEXTURES, encode_textures(&textures));
-        Ok(())
-    }
-}
-
-fn decode_maps(ctx: &mut JobContext<'_>) -> Result<ReliefSet, StageError> {
-    ReliefSet::decode(&ctx.input(MAPS)?)
-        .map_err(|e| StageError::new(format!("{}: {e}", ctx.asset())))
 }
 
 /// Parameters of the package job: what the manifest records besides its inputs.
@@ -200,33 +55,24 @@ pub fn tool() -> String {
 }
 
 /// Assembles the `.ori` file from the maps' frames, the selection, the PLT and the textures.
-pub struct PackageStage;
+pub struct Package;
 
-impl Stage for PackageStage {
-    fn name(&self) -> &'static str {
-        "package"
-    }
+impl PipelineStage for Package {
+    const NAME: &'static str = "package";
+    const VERSION: u32 = 1;
+    type Params = PackageParams;
 
-    fn version(&self) -> u32 {
-        1
-    }
-
-    fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
-        let params: PackageParams = params(ctx)?;
-        let fail = |ctx: &JobContext<'_>, e: &dyn std::fmt::Display| {
-            StageError::new(format!("{}: {e}", ctx.asset()))
-        };
-        let source = ctx
-            .input_hash("source")
+    fn run(&self, params: PackageParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let source = job
+            .input_hash(super::ingest::SOURCE)
             .ok_or_else(|| StageError::new("the package job has no source input"))?;
-        let set = decode_maps(ctx)?;
-        let selection =
-            ori_select::Selection::decode(&ctx.input(SELECTION)?).map_err(|e| fail(ctx, &e))?;
-        let plt = ori_plt::Plt::decode(&ctx.input(PLT)?).map_err(|e| fail(ctx, &e))?;
-        let textures = decode_textures(&ctx.input(TEXTURES)?).map_err(|e| fail(ctx, &e))?;
+        let set = MAPS.read(job)?;
+        let selection = SELECTION.read(job)?;
+        let plt = PLT.read(job)?;
+        let textures = TEXTURES.read(job)?;
         let manifest = manifest(&params, source.to_hex(), &set, &selection, &plt);
-        let bytes = ori_package::write(&manifest, &textures).map_err(|e| fail(ctx, &e))?;
-        ctx.output(PACKAGE, bytes);
+        let bytes = ori_package::write(&manifest, &textures.0).map_err(|e| in_asset(job, e))?;
+        PACKAGE.write(job, &PackageBytes(bytes));
         Ok(())
     }
 }
@@ -353,6 +199,12 @@ fn manifest(
     }
 }
 
+/// What a measuring package records: the selection parameters it is measured with.
+#[derive(Serialize)]
+struct MeasuredWith<'a> {
+    select: &'a ori_select::SelectParams,
+}
+
 /// A package of `set` to measure with the GPU renderer (`gpu_select`): exact R8 depth (all
 /// that coverage reads), quickly compressed normal and albedo, and a placeholder selection
 /// table (every direction: impostor 0) and PLT. Never written anywhere.
@@ -388,7 +240,7 @@ pub(crate) fn measuring_package(
         name: "measurement".into(),
         tool: tool(),
         depth: DepthFormat::R8,
-        pipeline: serde_json::json!({ "select": select }),
+        pipeline: serde_json::to_value(MeasuredWith { select }).expect("parameters serialise"),
         measured_on: None,
     };
     let manifest = manifest(&params, "0".repeat(64), set, &selection, &plt);

@@ -1,0 +1,176 @@
+//! `report.json` (`ori_release::BuildReport`) from a finished build: per asset, whether it
+//! built, what it measured and what each of its jobs did; and the packages to release.
+
+use std::path::Path;
+
+use ori_graph::{Build, Graph, Outcome};
+use ori_release::{
+    AssetReport, AssetStatus, AutoReport, BuildReport, JobReport, JobStatus, MeshSummary,
+    QualityReport,
+};
+
+use crate::plan::AssetJobs;
+use crate::stages::Artifact;
+use crate::stages::bake::MAPS;
+use crate::stages::ingest::{MESH, SUMMARY};
+use crate::stages::package::PACKAGE;
+use crate::stages::plt::PLT;
+use crate::stages::select::SELECTION;
+
+/// What the final run produced.
+pub struct Collected {
+    pub report: BuildReport,
+    /// (asset name, package bytes) of every asset that built.
+    pub packages: Vec<(String, Vec<u8>)>,
+    /// Outputs that could not be read back (each also fails its asset).
+    pub unreadable: usize,
+}
+
+/// What to read from the final run.
+pub struct Reading<'a> {
+    /// Read outputs (false for a dry run: a result found in the remote cache is not
+    /// downloaded).
+    pub outputs: bool,
+    /// Also write pictures of every asset's relief maps here.
+    pub dump_maps: Option<&'a Path>,
+}
+
+/// The status of a job in `report.json`.
+fn job_status(outcome: &Outcome) -> JobStatus {
+    match outcome {
+        Outcome::Reused => JobStatus::Reused,
+        Outcome::Ran(_) => JobStatus::Ran,
+        Outcome::WouldRun(_) => JobStatus::WouldRun,
+        Outcome::Failed(_) => JobStatus::Failed,
+        Outcome::Skipped => JobStatus::Skipped,
+        Outcome::NotCached => JobStatus::NotCached,
+    }
+}
+
+/// Whether an asset built, and the first error among its jobs.
+fn asset_status(
+    graph: &Graph,
+    build: &Build<'_>,
+    jobs: &AssetJobs,
+) -> (AssetStatus, Option<String>) {
+    // Built now or reused: the same bytes either way, so the same status.
+    let mut status = AssetStatus::Ok;
+    for id in jobs.all() {
+        match &build.result(id).outcome {
+            Outcome::Reused | Outcome::Ran(_) => {}
+            Outcome::WouldRun(_) => status = AssetStatus::NotBuilt,
+            Outcome::Failed(m) => return (AssetStatus::Failed, Some(m.clone())),
+            Outcome::Skipped => status = AssetStatus::Failed,
+            Outcome::NotCached => {
+                let stage = graph.job(id).stage.name();
+                let error = format!("stage `{stage}` is not in the cache");
+                return (AssetStatus::Failed, Some(error));
+            }
+        }
+    }
+    (status, None)
+}
+
+/// The selection and PLT outputs of an asset as its quality entry.
+fn quality(build: &Build<'_>, jobs: &AssetJobs) -> Result<QualityReport, String> {
+    let selection = SELECTION.read_from(build, jobs.select)?;
+    let plt = PLT.read_from(build, jobs.plt)?;
+    let stats = selection.stats();
+    Ok(QualityReport {
+        coverage_error_min_percent: stats.min_percent,
+        coverage_error_max_percent: stats.max_percent,
+        coverage_error_avg_percent: stats.avg_percent,
+        impostors_per_view: stats.avg_impostors,
+        views_by_impostor_count: stats.views_by_count,
+        s0: plt.s0,
+        gc: plt.gc,
+        plt: plt.pixels(),
+        plt_is_lower_bound: matches!(plt.value(), ori_plt::PltValue::AtLeast(_)),
+        recommended_resolution: plt.recommended_resolution(),
+    })
+}
+
+/// Read every asset's results from the final run. `resolutions` and `auto` are per asset,
+/// in the order of `jobs`.
+pub fn collect(
+    graph: &Graph,
+    build: &Build<'_>,
+    jobs: &[AssetJobs],
+    resolutions: &[u32],
+    auto: &[Option<AutoReport>],
+    reading: &Reading<'_>,
+) -> Collected {
+    let mut report = BuildReport::default();
+    let mut unreadable = 0;
+    let mut packages = Vec::new();
+    for (index, j) in jobs.iter().enumerate() {
+        let (status, error) = asset_status(graph, build, j);
+        let ingest = build.result(j.ingest);
+        let mut entry = AssetReport {
+            name: j.asset.name.clone(),
+            status,
+            error,
+            warnings: j
+                .all()
+                .iter()
+                .flat_map(|&id| build.result(id).warnings.clone())
+                .collect(),
+            mesh: None,
+            mesh_hash: ingest.outputs.get(MESH.name).map(|b| b.hash.to_hex()),
+            maps_hash: build
+                .result(j.bake)
+                .outputs
+                .get(MAPS.name)
+                .map(|b| b.hash.to_hex()),
+            quality: None,
+            resolution: resolutions[index],
+            auto_resolution: auto[index].clone(),
+            jobs: j
+                .all()
+                .iter()
+                .map(|&id| {
+                    let r = build.result(id);
+                    JobReport {
+                        stage: graph.job(id).stage.name().to_string(),
+                        status: job_status(&r.outcome),
+                        seconds: r.duration.as_secs_f64(),
+                    }
+                })
+                .collect(),
+        };
+        let mut fail = |entry: &mut AssetReport, e: String| {
+            unreadable += 1;
+            entry.status = AssetStatus::Failed;
+            entry.error = Some(e);
+        };
+        let readable = status == AssetStatus::Ok && reading.outputs;
+        if readable {
+            let outputs =
+                quality(build, j).and_then(|q| Ok((q, PACKAGE.read_from(build, j.package)?)));
+            match outputs {
+                Ok((q, package)) => {
+                    entry.quality = Some(q);
+                    packages.push((j.asset.name.clone(), package.0));
+                }
+                Err(e) => fail(&mut entry, e),
+            }
+        }
+        if let Some(dir) = reading.dump_maps.filter(|_| readable)
+            && let Err(e) = crate::outputs::dump_maps(build, j, dir)
+        {
+            fail(&mut entry, e);
+        }
+        if reading.outputs && matches!(ingest.outcome, Outcome::Reused | Outcome::Ran(_)) {
+            match build.read_output(j.ingest, SUMMARY.name) {
+                Ok(bytes) => entry.mesh = MeshSummary::decode(&bytes).ok(),
+                Err(e) => fail(&mut entry, e.to_string()),
+            }
+        }
+        report.assets.push(entry);
+    }
+    Collected {
+        report,
+        packages,
+        unreadable,
+    }
+}

@@ -1,0 +1,29 @@
+//! The graph runs of one build: every run (trial runs of the searches, then the final one)
+//! uses the same cache, options and observer, and adds to the same per-stage counts.
+
+use ori_graph::{Build, Cache, Graph, Observer, RunOptions};
+
+use crate::summary::StageLine;
+
+pub struct Runs<'a> {
+    pub cache: Cache,
+    pub options: RunOptions,
+    pub observer: &'a dyn Observer,
+    /// Per stage, over every run so far.
+    pub stages: Vec<StageLine>,
+    /// Source files read and hashed (memo misses), over every run so far.
+    pub sources_hashed: u64,
+}
+
+impl<'a> Runs<'a> {
+    /// Run `graph` and count what it did.
+    pub fn run<'g>(&mut self, graph: &'g Graph) -> Build<'g>
+    where
+        'a: 'g,
+    {
+        let build = ori_graph::run(graph, &self.cache, &self.options, self.observer);
+        StageLine::add_run(&mut self.stages, &build);
+        self.sources_hashed += build.sources_rehashed();
+        build
+    }
+}

@@ -1,0 +1,37 @@
+//! bake: one relief map per planned direction (`[bake]`).
+
+use ori_bake::{BakeParams, ReliefSet};
+use ori_graph::{JobContext, StageError};
+
+use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH, views::PLAN};
+
+/// The relief maps.
+pub const MAPS: Slot<ReliefSet> = Slot::new("maps");
+
+impl Artifact for ReliefSet {
+    fn encode(&self) -> Vec<u8> {
+        ReliefSet::encode(self)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<ReliefSet, String> {
+        ReliefSet::decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+pub struct Bake;
+
+impl PipelineStage for Bake {
+    const NAME: &'static str = "bake";
+    // 2: conservative edge texels (a texel whose centre misses but a sub-sample hits).
+    // 3: single-sided materials culled from behind.
+    const VERSION: u32 = 3;
+    type Params = BakeParams;
+
+    fn run(&self, params: BakeParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let mesh = MESH.read(job)?;
+        let plan = PLAN.read(job)?;
+        let set = ori_bake::bake(&mesh, &plan.directions, &params).map_err(|e| in_asset(job, e))?;
+        MAPS.write(job, &set);
+        Ok(())
+    }
+}

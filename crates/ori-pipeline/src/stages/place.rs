@@ -1,0 +1,44 @@
+//! place: moves the planned directions where the evaluator shows they are needed (`[place]`,
+//! see `ori_place`), measured with the `[bake]` and `[select]` parameters of the stages after
+//! it.
+
+use ori_bake::BakeParams;
+use ori_graph::{JobContext, StageError};
+use serde::{Deserialize, Serialize};
+
+use super::{PipelineStage, in_asset, ingest::MESH, views::PLAN};
+
+pub struct Place;
+
+/// The place job's parameters: its own, and those of the bake and selection it measures
+/// with (its result depends on them).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaceJob {
+    pub place: ori_place::PlaceParams,
+    pub bake: BakeParams,
+    pub select: ori_select::SelectParams,
+    pub item_buffer_size: u32,
+}
+
+impl PipelineStage for Place {
+    const NAME: &'static str = "place";
+    const VERSION: u32 = 1;
+    type Params = PlaceJob;
+
+    fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let mesh = MESH.read(job)?;
+        let plan = PLAN.read(job)?;
+        let measure = ori_place::Measure {
+            bake: &params.bake,
+            eval: &params.select.eval_params(),
+            closest: params.select.rule.m() as usize,
+            goal_pixels: params.select.goal_pixels(),
+            entropy_size: params.item_buffer_size,
+        };
+        let placed = ori_place::place(&mesh, &plan, &measure, &params.place)
+            .map_err(|e| in_asset(job, e))?;
+        PLAN.write(job, &placed.plan);
+        Ok(())
+    }
+}

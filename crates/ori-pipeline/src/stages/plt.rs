@@ -1,0 +1,40 @@
+//! plt: GC(s0) and the projected length threshold, from the selection table.
+
+use ori_graph::{JobContext, StageError};
+use ori_plt::Plt;
+use serde::{Deserialize, Serialize};
+
+use super::{Artifact, PipelineStage, Slot, select::SELECTION};
+
+/// The measured PLT.
+pub const PLT: Slot<Plt> = Slot::new("plt");
+
+impl Artifact for Plt {
+    fn encode(&self) -> Vec<u8> {
+        Plt::encode(self)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Plt, String> {
+        Plt::decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+pub struct PltStage;
+
+/// The plt job has no parameters (an empty object).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoParams {}
+
+impl PipelineStage for PltStage {
+    const NAME: &'static str = "plt";
+    const VERSION: u32 = 1;
+    type Params = NoParams;
+
+    fn run(&self, _: NoParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let selection = SELECTION.read(job)?;
+        let missed: Vec<u32> = selection.entries.iter().map(|e| e.missed).collect();
+        PLT.write(job, &ori_plt::estimate(selection.s0, &missed));
+        Ok(())
+    }
+}

@@ -1,0 +1,77 @@
+//! select: for each of the 320 evaluation directions, the impostors to draw (`[select]`),
+//! measured by the CPU evaluator or, with `--backend gpu`, the wgpu renderer.
+
+use ori_graph::{JobContext, StageError};
+use ori_select::{SelectParams, Selection};
+use serde::{Deserialize, Serialize};
+
+use super::{Artifact, PipelineStage, Slot, bake::MAPS, in_asset, ingest::MESH};
+
+/// The selection table and its statistics.
+pub const SELECTION: Slot<Selection> = Slot::new("selection");
+
+impl Artifact for Selection {
+    fn encode(&self) -> Vec<u8> {
+        Selection::encode(self)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Selection, String> {
+        Selection::decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+pub struct Select;
+
+/// The select job's parameters: `[select]`, and the GPU adapter when the GPU measures (its
+/// results are device-dependent, so they get their own cache entries).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SelectJob {
+    #[serde(flatten)]
+    pub select: SelectParams,
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub gpu: Option<GpuBackend>,
+}
+
+/// Selection measured with the wgpu renderer on `device` (`--backend gpu`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GpuBackend {
+    /// Always `"gpu"`.
+    pub backend: String,
+    /// The adapter's summary (`gpu_select::renderer`).
+    pub device: String,
+}
+
+impl SelectJob {
+    pub fn new(select: &SelectParams, device: Option<&str>) -> SelectJob {
+        SelectJob {
+            select: select.clone(),
+            gpu: device.map(|d| GpuBackend {
+                backend: "gpu".to_string(),
+                device: d.to_string(),
+            }),
+        }
+    }
+}
+
+impl PipelineStage for Select {
+    const NAME: &'static str = "select";
+    /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
+    /// 3: single-sided materials are culled from behind in the reference.
+    const VERSION: u32 = 3;
+    type Params = SelectJob;
+
+    fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let mesh = MESH.read(job)?;
+        let set = MAPS.read(job)?;
+        let selection = if params.gpu.is_some() {
+            crate::gpu_select::renderer()
+                .and_then(|r| crate::gpu_select::select(&mesh, &set, &params.select, r))
+                .map_err(|e| in_asset(job, format!("GPU selection: {e}")))?
+        } else {
+            ori_select::select(&mesh, &set, &params.select).map_err(|e| in_asset(job, e))?
+        };
+        SELECTION.write(job, &selection);
+        Ok(())
+    }
+}

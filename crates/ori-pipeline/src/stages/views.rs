@@ -1,0 +1,34 @@
+//! views: the impostor directions (`[views]`), planned from the canonical mesh.
+
+use ori_graph::{JobContext, StageError};
+use ori_views::{ViewParams, ViewPlan};
+
+use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH};
+
+/// The planned (and, after `place`, placed) directions.
+pub const PLAN: Slot<ViewPlan> = Slot::new("views");
+
+impl Artifact for ViewPlan {
+    fn encode(&self) -> Vec<u8> {
+        ViewPlan::encode(self)
+    }
+
+    fn decode(bytes: &[u8]) -> Result<ViewPlan, String> {
+        ViewPlan::decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+pub struct Views;
+
+impl PipelineStage for Views {
+    const NAME: &'static str = "views";
+    const VERSION: u32 = 1;
+    type Params = ViewParams;
+
+    fn run(&self, params: ViewParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
+        let mesh = MESH.read(job)?;
+        let plan = ori_views::plan_views(&mesh, &params).map_err(|e| in_asset(job, e))?;
+        PLAN.write(job, &plan);
+        Ok(())
+    }
+}

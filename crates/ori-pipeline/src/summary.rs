@@ -1,0 +1,163 @@
+//! What a build tells the user at the end: counts and times per stage, the remote cache's
+//! traffic, and the table printed from them.
+
+use std::path::PathBuf;
+
+use ori_graph::{RemoteCache, RemoteMode, RemoteStats};
+use serde::Serialize;
+
+use crate::shard;
+
+/// Counts and times of a finished build.
+#[derive(Clone, Debug, Serialize)]
+pub struct BuildSummary {
+    pub assets: usize,
+    /// Assets that did not build (their errors were printed with their jobs).
+    pub failed_assets: usize,
+    /// About the output folder, for the user (e.g. files left alone).
+    pub warnings: Vec<String>,
+    pub stages: Vec<StageLine>,
+    pub failed_jobs: usize,
+    pub wall_seconds: f64,
+    /// Source files read and hashed (the rest came from the stat memo).
+    pub sources_hashed: u64,
+    pub dry_run: bool,
+    /// Where the report was written (not for dry runs or shards).
+    pub report: Option<PathBuf>,
+    /// The part built, and how many assets there are in all (`--shard`).
+    pub shard: Option<(shard::Shard, usize)>,
+    /// What the remote cache did, when one is configured.
+    pub remote: Option<RemoteSummary>,
+}
+
+/// The remote cache's part in a build.
+#[derive(Clone, Debug, Serialize)]
+pub struct RemoteSummary {
+    pub url: String,
+    pub mode: RemoteMode,
+    /// The server failed during the build (the rest was built locally).
+    pub unavailable: bool,
+    pub stats: RemoteStats,
+}
+
+impl RemoteSummary {
+    pub(crate) fn of(remote: &RemoteCache) -> RemoteSummary {
+        RemoteSummary {
+            url: remote.describe(),
+            mode: remote.mode(),
+            unavailable: remote.is_offline(),
+            stats: remote.stats(),
+        }
+    }
+}
+
+/// One stage's line of the summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageLine {
+    pub stage: String,
+    pub ran: usize,
+    pub reused: usize,
+    pub would_run: usize,
+    pub failed: usize,
+    pub skipped: usize,
+    pub seconds: f64,
+}
+
+impl StageLine {
+    /// Add a run's per-stage counts and times to `lines` (by stage name, first-seen order).
+    pub fn add_run(lines: &mut Vec<StageLine>, build: &ori_graph::Build<'_>) {
+        for s in build.summary() {
+            let i = match lines.iter().position(|l| l.stage == s.stage) {
+                Some(i) => i,
+                None => {
+                    lines.push(StageLine {
+                        stage: s.stage.to_string(),
+                        ran: 0,
+                        reused: 0,
+                        would_run: 0,
+                        failed: 0,
+                        skipped: 0,
+                        seconds: 0.0,
+                    });
+                    lines.len() - 1
+                }
+            };
+            let l = &mut lines[i];
+            l.ran += s.ran;
+            l.reused += s.reused;
+            l.would_run += s.would_run;
+            l.failed += s.failed;
+            l.skipped += s.skipped;
+            l.seconds += s.time.as_secs_f64();
+        }
+    }
+}
+
+/// The summary as the table printed at the end of a build.
+pub fn format_summary(s: &BuildSummary) -> String {
+    let mut out = String::new();
+    out.push_str(&format!(
+        "{:<10} {:>6} {:>7} {:>7} {:>9}\n",
+        "stage", "ran", "reused", "failed", "time (s)"
+    ));
+    for l in &s.stages {
+        let ran = if s.dry_run { l.would_run } else { l.ran };
+        out.push_str(&format!(
+            "{:<10} {:>6} {:>7} {:>7} {:>9.2}\n",
+            l.stage,
+            ran,
+            l.reused,
+            l.failed + l.skipped,
+            l.seconds
+        ));
+    }
+    if s.dry_run {
+        out.push_str(&format!("{} assets would run", s.assets));
+    } else if s.failed_assets > 0 {
+        out.push_str(&format!(
+            "{} assets built, {} failed",
+            s.assets - s.failed_assets,
+            s.failed_assets
+        ));
+    } else {
+        out.push_str(&format!("{} assets built", s.assets));
+    }
+    out.push_str(&format!(
+        " in {:.2} s ({} source files hashed)",
+        s.wall_seconds, s.sources_hashed
+    ));
+    if let Some(r) = &s.report {
+        out.push_str(&format!("; report: {}", r.display()));
+    }
+    if let Some((shard, total)) = s.shard {
+        out.push_str(&format!(
+            "\nshard {shard}: {} of {total} assets; no release written (`cargo xtask assemble` writes it once every shard is built)",
+            s.assets
+        ));
+    }
+    if let Some(r) = &s.remote {
+        let mb = |b: u64| b as f64 / 1e6;
+        let st = &r.stats;
+        let mode = match r.mode {
+            RemoteMode::ReadOnly => "read-only",
+            RemoteMode::ReadWrite => "read-write",
+        };
+        out.push_str(&format!(
+            "\nremote cache {} ({mode}): downloaded {} entries, {} blobs, {:.2} MB; uploaded {} entries, {} blobs, {:.2} MB",
+            r.url,
+            st.entries_downloaded,
+            st.blobs_downloaded,
+            mb(st.bytes_downloaded),
+            st.entries_uploaded,
+            st.blobs_uploaded,
+            mb(st.bytes_uploaded)
+        ));
+        if st.corrupt > 0 {
+            out.push_str(&format!("; {} damaged download(s) rebuilt", st.corrupt));
+        }
+        if r.unavailable {
+            out.push_str("; unavailable during the build, the rest was built locally");
+        }
+    }
+    out
+}
