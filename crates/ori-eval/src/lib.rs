@@ -93,9 +93,9 @@ mod mask;
 mod reference;
 mod render;
 
-use ori_bake::ReliefSet;
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
+use ori_relief::ReliefSet;
 use serde::{Deserialize, Serialize};
 
 pub use compare::{Shading, ViewErrors, compare, error_image, percent, write_error_png};

@@ -56,8 +56,8 @@
 //! volume", which on the Stanford scans more than doubles the pixels the ORI adds outside the
 //! mesh for a few percent fewer missed pixels (see the crate documentation).
 
-use ori_bake::{EMPTY_DEPTH, MAX_DEPTH, ReliefMap};
 use ori_raster::OrthoView;
+use ori_relief::{EMPTY_DEPTH, MAX_DEPTH, ReliefMap};
 
 use crate::lanes::{LaneMask, Lanes};
 

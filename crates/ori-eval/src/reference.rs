@@ -2,9 +2,10 @@
 //! alpha test as baking), and the full render (depth, albedo, normal) that colour and depth
 //! errors compare against.
 
-use ori_bake::{BakeParams, EMPTY_DEPTH, ReliefMap};
+use ori_bake::BakeParams;
 use ori_mesh::{AlphaMode, Mesh, Wrap};
 use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
+use ori_relief::{EMPTY_DEPTH, ReliefMap};
 
 use crate::{EvalError, NO_SOURCE, Render};
 

@@ -1,8 +1,8 @@
 //! Renders of the ORI: per-impostor layers (every pixel's trace, computed once per view) and
 //! their composition under the fragment-priority rule.
 
-use ori_bake::{ReliefMap, ReliefSet};
 use ori_raster::OrthoView;
+use ori_relief::{ReliefMap, ReliefSet};
 
 use crate::march::{ImpostorRays, Trace};
 use crate::reference::world_normal;

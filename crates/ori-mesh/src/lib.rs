@@ -27,9 +27,9 @@ mod ply;
 mod texture;
 
 pub use clip::clip_to_box;
-pub use codec::DecodeError;
 pub use error::{ErrorKind, MeshError};
 pub use normals::{angle_weighted_normals, face_normal};
+pub use ori_artifact::DecodeError;
 
 use std::io;
 use std::path::Path;

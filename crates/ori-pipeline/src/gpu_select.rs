@@ -11,9 +11,9 @@
 
 use std::sync::OnceLock;
 
-use ori_bake::ReliefSet;
 use ori_eval::{Evaluator, Mask};
 use ori_mesh::Mesh;
+use ori_relief::ReliefSet;
 use ori_render::{Camera, Draw, Renderer};
 use ori_select::{SelectParams, Selection, ViewMasks};
 

@@ -16,7 +16,10 @@
 mod auto;
 mod screen;
 
+use ori_artifact::Layout;
 use serde::{Deserialize, Serialize};
+
+pub use ori_artifact::DecodeError;
 
 pub use auto::{AutoStep, auto_resolution};
 pub use screen::{ortho_sphere_edge, sphere_projected_edge};
@@ -82,43 +85,28 @@ impl Plt {
         nearest_power_of_two(2.0 * self.pixels())
     }
 
-    /// The canonical byte layout: "ORIPLT\0\0", u32 layout version 1, u32 s0, u32 GC,
-    /// u32 worst direction (u32::MAX for none); little-endian.
+    /// The canonical byte layout (the shared artifact header, then u32 s0, u32 GC, u32 worst
+    /// direction or u32::MAX for none; little-endian).
     pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(24);
-        out.extend_from_slice(MAGIC);
-        for v in [
-            LAYOUT_VERSION,
-            self.s0,
-            self.gc,
-            self.worst_direction.unwrap_or(u32::MAX),
-        ] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        out
+        let mut w = LAYOUT.writer();
+        w.u32(self.s0);
+        w.u32(self.gc);
+        w.u32(self.worst_direction.unwrap_or(u32::MAX));
+        w.finish()
     }
 
     pub fn decode(bytes: &[u8]) -> Result<Plt, DecodeError> {
-        if bytes.len() != 24 || &bytes[..8] != MAGIC {
-            return Err(DecodeError(
-                "not a PLT artifact (bad magic or length)".into(),
-            ));
-        }
-        let word = |i: usize| u32::from_le_bytes(bytes[8 + 4 * i..12 + 4 * i].try_into().unwrap());
-        if word(0) != LAYOUT_VERSION {
-            return Err(DecodeError(format!(
-                "layout version {}, expected {LAYOUT_VERSION}",
-                word(0)
-            )));
-        }
+        let mut r = LAYOUT.reader(bytes)?;
+        let (s0, gc, worst) = (r.u32()?, r.u32()?, r.u32()?);
         let plt = Plt {
-            s0: word(1),
-            gc: word(2),
-            worst_direction: (word(3) != u32::MAX).then_some(word(3)),
+            s0,
+            gc,
+            worst_direction: (worst != u32::MAX).then_some(worst),
         };
         if plt.s0 == 0 || (plt.gc == 0) != plt.worst_direction.is_none() {
-            return Err(DecodeError("inconsistent PLT fields".into()));
+            return Err(r.error("inconsistent PLT fields"));
         }
+        r.finish()?;
         Ok(plt)
     }
 }
@@ -132,13 +120,11 @@ impl std::fmt::Display for Plt {
     }
 }
 
-const MAGIC: &[u8; 8] = b"ORIPLT\0\0";
-const LAYOUT_VERSION: u32 = 1;
-
-/// Bytes that are not a valid PLT artifact.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("invalid PLT artifact: {0}")]
-pub struct DecodeError(String);
+const LAYOUT: Layout = Layout {
+    kind: "PLT",
+    magic: *b"ORIPLT\0\0",
+    version: 1,
+};
 
 /// The runtime check: may the ORI be drawn when the edge of the square bounding box of its
 /// screen projection is `projected_px` pixels? True when `projected_px <= PLT` (with GC = 0,

@@ -2,10 +2,10 @@
 
 use std::path::Path;
 
-use ori_bake::{EMPTY_DEPTH, ReliefSet};
 use ori_eval::{Evaluator, Render, Shading, ViewErrors};
 use ori_mesh::Mesh;
 use ori_raster::{EMPTY, Frame, OrthoView, rasterize};
+use ori_relief::{EMPTY_DEPTH, ReliefSet};
 
 /// An RGB picture, row-major, row 0 at the top.
 pub struct Picture {

@@ -1,9 +1,9 @@
 //! A package's textures decoded back into relief maps, so the CPU evaluator draws exactly
 //! what ships (block compression included).
 
-use ori_bake::{ReliefMap, ReliefSet};
 use ori_package::{Package, TextureFormat};
 use ori_raster::{Frame, OrthoView};
+use ori_relief::{ReliefMap, ReliefSet};
 
 /// The relief maps a package carries, decoded.
 pub fn relief_set(package: &Package) -> Result<ReliefSet, String> {

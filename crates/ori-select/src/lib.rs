@@ -51,15 +51,15 @@ mod codec;
 mod report;
 mod rule;
 
-use ori_bake::ReliefSet;
 use ori_eval::Evaluator;
 use ori_mesh::Mesh;
+use ori_relief::ReliefSet;
 use rayon::prelude::*;
 
 pub use choose::{Choice, ViewMasks, choose};
-pub use codec::DecodeError;
+pub use ori_artifact::DecodeError;
 pub use report::{RuleSummary, RuleView, evaluate_rules, summarize};
-pub use rule::{MAX_BEST, Rule, SelectParams};
+pub use rule::{MAX_BEST, MAX_CLOSEST, Rule, SelectParams};
 
 /// Why selection failed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -22,6 +22,9 @@ pub enum Rule {
 
 /// Largest `M` of `best:M`: 2^M - 1 subsets are tried per view.
 pub const MAX_BEST: u32 = 16;
+/// The most impostors `closest:M` may draw per view (the selection artifact stores the count
+/// in one byte).
+pub const MAX_CLOSEST: u32 = 255;
 
 impl Rule {
     /// `M`.
@@ -47,14 +50,14 @@ impl FromStr for Rule {
     fn from_str(s: &str) -> Result<Rule, SelectError> {
         let bad = || {
             SelectError::Params(format!(
-                "select.rule = {s:?}: expected \"closest:M\" (M >= 1) or \"best:M\" (1 <= M <= \
-                 {MAX_BEST})"
+                "select.rule = {s:?}: expected \"closest:M\" (1 <= M <= {MAX_CLOSEST}) or \
+                 \"best:M\" (1 <= M <= {MAX_BEST})"
             ))
         };
         let (kind, m) = s.split_once(':').ok_or_else(bad)?;
         let m: u32 = m.parse().map_err(|_| bad())?;
         match kind {
-            "closest" if m >= 1 => Ok(Rule::Closest(m)),
+            "closest" if (1..=MAX_CLOSEST).contains(&m) => Ok(Rule::Closest(m)),
             "best" if (1..=MAX_BEST).contains(&m) => Ok(Rule::Best(m)),
             _ => Err(bad()),
         }
@@ -117,6 +120,13 @@ impl SelectParams {
         {
             return Err(SelectError::Params(format!(
                 "select.rule = \"best:{m}\": M must be 1 to {MAX_BEST}"
+            )));
+        }
+        if let Rule::Closest(m) = self.rule
+            && m > MAX_CLOSEST
+        {
+            return Err(SelectError::Params(format!(
+                "select.rule = \"closest:{m}\": M must be 1 to {MAX_CLOSEST}"
             )));
         }
         if self.rule.m() == 0 {

@@ -8,77 +8,67 @@
 //! ```
 //! `f64`s are stored as their bits, so a plan round-trips exactly.
 
+use ori_artifact::Layout;
+
 use crate::{Strategy, ViewError, ViewPlan};
 
-const MAGIC: &[u8; 8] = b"ORIVIEW\0";
-const LAYOUT_VERSION: u32 = 1;
+const LAYOUT: Layout = Layout {
+    kind: "view plan",
+    magic: *b"ORIVIEW\0",
+    version: 1,
+};
+#[cfg(test)]
 const HEADER: usize = 8 + 4 + 1 + 4;
 
 impl ViewPlan {
     /// Serialise to the canonical byte layout (see the module docs of `codec.rs`).
     pub fn encode(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(HEADER + 32 * self.directions.len());
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&LAYOUT_VERSION.to_le_bytes());
-        out.push(match self.strategy {
+        let mut w = LAYOUT.writer();
+        w.reserve(5 + 32 * self.directions.len());
+        w.u8(match self.strategy {
             Strategy::Regular => 0,
             Strategy::MinimalSampling => 1,
             Strategy::Perturbed => 2,
         });
-        out.extend_from_slice(&(self.directions.len() as u32).to_le_bytes());
-        for x in self.directions.iter().flatten().chain(&self.entropies) {
-            out.extend_from_slice(&x.to_le_bytes());
+        w.count(self.directions.len());
+        for &x in self.directions.iter().flatten().chain(&self.entropies) {
+            w.f64(x);
         }
-        out
+        w.finish()
     }
 
     /// Parse bytes written by [`ViewPlan::encode`]: the exact length, finite unit directions
     /// and finite non-negative entropies, one per direction.
     pub fn decode(bytes: &[u8]) -> Result<ViewPlan, ViewError> {
-        let bad = |msg: String| ViewError::Decode(msg);
-        if bytes.len() < HEADER || &bytes[..8] != MAGIC {
-            return Err(bad("bad magic".into()));
-        }
-        let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"));
-        let version = u32_at(8);
-        if version != LAYOUT_VERSION {
-            return Err(bad(format!(
-                "layout version {version}, expected {LAYOUT_VERSION}"
-            )));
-        }
-        let strategy = match bytes[12] {
+        let mut r = LAYOUT.reader(bytes)?;
+        let strategy = match r.u8()? {
             0 => Strategy::Regular,
             1 => Strategy::MinimalSampling,
             2 => Strategy::Perturbed,
-            s => return Err(bad(format!("unknown strategy code {s}"))),
+            s => return Err(r.error(format!("unknown strategy code {s}")).into()),
         };
-        let n = u32_at(13) as usize;
-        // Checked against the actual length before anything is allocated.
-        if (bytes.len() - HEADER) as u64 != 32 * n as u64 {
-            return Err(bad(format!(
-                "{} bytes of data for {n} directions (expected {})",
-                bytes.len() - HEADER,
-                32 * n as u64
-            )));
-        }
-        let mut values = bytes[HEADER..]
-            .chunks_exact(8)
-            .map(|b| f64::from_le_bytes(b.try_into().expect("8 bytes")));
-        let directions: Vec<[f64; 3]> = (0..n)
-            .map(|_| std::array::from_fn(|_| values.next().expect("length checked")))
-            .collect();
-        let entropies: Vec<f64> = values.collect();
-        for (i, d) in directions.iter().enumerate() {
+        // A direction and its entropy take 32 bytes.
+        let n = r.count(32)?;
+        let mut directions = Vec::with_capacity(n);
+        for i in 0..n {
+            let d = [r.f64()?, r.f64()?, r.f64()?];
             let len2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             // Also rejects NaN and infinities.
-            let unit = (len2 - 1.0).abs() < 1e-9;
-            if !unit {
-                return Err(bad(format!("direction {i} is not a unit vector: {d:?}")));
+            if (len2 - 1.0).abs() >= 1e-9 || len2.is_nan() {
+                let msg = format!("direction {i} is not a unit vector: {d:?}");
+                return Err(r.error(msg).into());
             }
+            directions.push(d);
         }
-        if let Some(i) = entropies.iter().position(|h| !(h.is_finite() && *h >= 0.0)) {
-            return Err(bad(format!("entropy {i} is {}", entropies[i])));
+        let mut entropies = Vec::with_capacity(n);
+        for i in 0..n {
+            let h = r.f64()?;
+            if !(h.is_finite() && h >= 0.0) {
+                return Err(r.error(format!("entropy {i} is {h}")).into());
+            }
+            entropies.push(h);
         }
+        r.finish()?;
         Ok(ViewPlan {
             strategy,
             directions,

@@ -43,6 +43,6 @@ pub enum ViewError {
     #[error("cannot plan views: {0}")]
     Mesh(String),
     /// Bytes that are not a valid encoded [`ViewPlan`].
-    #[error("invalid view plan artifact: {0}")]
-    Decode(String),
+    #[error(transparent)]
+    Decode(#[from] ori_artifact::DecodeError),
 }

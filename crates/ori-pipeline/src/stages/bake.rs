@@ -1,7 +1,9 @@
 //! bake: one relief map per planned direction (`[bake]`).
 
-use ori_bake::{BakeParams, ReliefSet};
+use ori_artifact::DecodeError;
+use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
+use ori_relief::ReliefSet;
 
 use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH, views::PLAN};
 
@@ -13,8 +15,8 @@ impl Artifact for ReliefSet {
         ReliefSet::encode(self)
     }
 
-    fn decode(bytes: &[u8]) -> Result<ReliefSet, String> {
-        ReliefSet::decode(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<ReliefSet, DecodeError> {
+        ReliefSet::decode(bytes)
     }
 }
 

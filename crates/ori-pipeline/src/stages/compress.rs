@@ -1,9 +1,10 @@
 //! compress: each relief map to three KTX2 textures (`[compress]`; the guide's 2.5 bytes per
 //! texel: R8 depth, BC5 normal, BC1 albedo; BC4 depth on request).
 
-use ori_bake::{EMPTY_DEPTH, ReliefMap};
+use ori_artifact::{DecodeError, Layout};
 use ori_graph::{JobContext, StageError};
 use ori_package::{ImpostorTextures, TextureFormat};
+use ori_relief::{EMPTY_DEPTH, ReliefMap};
 use ori_texture::{Ktx2, Quality, RgbaImage, VkFormat};
 use serde::{Deserialize, Serialize};
 
@@ -104,54 +105,41 @@ pub(crate) fn compress_map(
     })
 }
 
-/// For each map, its depth, normal and albedo KTX2 files, each as a little-endian `u64`
-/// length and the bytes, after a `u32` map count.
+/// The textures artifact: the shared artifact header, a `u32` map count, then each map's
+/// depth, normal and albedo KTX2 files as blobs (`u64` length and the bytes).
+const TEXTURES_LAYOUT: Layout = Layout {
+    kind: "textures",
+    magic: *b"ORITEXS\0",
+    version: 1,
+};
+
 impl Artifact for Textures {
     fn encode(&self) -> Vec<u8> {
-        encode_textures(&self.0)
-    }
-
-    fn decode(bytes: &[u8]) -> Result<Textures, String> {
-        decode_textures(bytes).map(Textures)
-    }
-}
-
-fn encode_textures(textures: &[ImpostorTextures]) -> Vec<u8> {
-    let mut out = (textures.len() as u32).to_le_bytes().to_vec();
-    for t in textures {
-        for file in [&t.depth, &t.normal, &t.albedo] {
-            out.extend_from_slice(&(file.len() as u64).to_le_bytes());
-            out.extend_from_slice(file);
+        let mut w = TEXTURES_LAYOUT.writer();
+        w.count(self.0.len());
+        for t in &self.0 {
+            for file in [&t.depth, &t.normal, &t.albedo] {
+                w.blob(file);
+            }
         }
+        w.finish()
     }
-    out
-}
 
-fn decode_textures(bytes: &[u8]) -> Result<Vec<ImpostorTextures>, String> {
-    let bad = || "the textures artifact is truncated".to_string();
-    let mut rest = bytes;
-    let mut take = |n: usize| -> Result<&[u8], String> {
-        if rest.len() < n {
-            return Err(bad());
+    fn decode(bytes: &[u8]) -> Result<Textures, DecodeError> {
+        let mut r = TEXTURES_LAYOUT.reader(bytes)?;
+        // Three blob lengths per map.
+        let count = r.count(24)?;
+        let mut out = Vec::with_capacity(count);
+        for _ in 0..count {
+            out.push(ImpostorTextures {
+                depth: r.blob()?.to_vec(),
+                normal: r.blob()?.to_vec(),
+                albedo: r.blob()?.to_vec(),
+            });
         }
-        let (head, tail) = rest.split_at(n);
-        rest = tail;
-        Ok(head)
-    };
-    let count = u32::from_le_bytes(take(4)?.try_into().expect("4 bytes"));
-    let mut out = Vec::new();
-    for _ in 0..count {
-        let mut file = || -> Result<Vec<u8>, String> {
-            let len = u64::from_le_bytes(take(8)?.try_into().expect("8 bytes"));
-            Ok(take(usize::try_from(len).map_err(|_| bad())?)?.to_vec())
-        };
-        out.push(ImpostorTextures {
-            depth: file()?,
-            normal: file()?,
-            albedo: file()?,
-        });
+        r.finish()?;
+        Ok(Textures(out))
     }
-    Ok(out)
 }
 
 /// Compresses every relief map (`[compress]` parameters).
@@ -159,7 +147,7 @@ pub struct Compress;
 
 impl PipelineStage for Compress {
     const NAME: &'static str = "compress";
-    const VERSION: u32 = 1;
+    const VERSION: u32 = 2;
     type Params = CompressParams;
 
     fn run(&self, params: CompressParams, job: &mut JobContext<'_>) -> Result<(), StageError> {

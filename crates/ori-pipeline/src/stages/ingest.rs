@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
 use ori_mesh::{LoadOptions, Mesh};
 use ori_release::MeshSummary;
@@ -22,8 +23,8 @@ impl Artifact for Mesh {
         Mesh::encode(self)
     }
 
-    fn decode(bytes: &[u8]) -> Result<Mesh, String> {
-        Mesh::decode(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<Mesh, DecodeError> {
+        Mesh::decode(bytes)
     }
 }
 
@@ -32,8 +33,11 @@ impl Artifact for MeshSummary {
         serde_json::to_vec_pretty(self).expect("a mesh summary serialises")
     }
 
-    fn decode(bytes: &[u8]) -> Result<MeshSummary, String> {
-        serde_json::from_slice(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<MeshSummary, DecodeError> {
+        serde_json::from_slice(bytes).map_err(|e| DecodeError {
+            kind: "mesh summary",
+            detail: e.to_string(),
+        })
     }
 }
 

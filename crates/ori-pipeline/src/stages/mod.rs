@@ -28,6 +28,7 @@ pub mod views;
 use std::marker::PhantomData;
 use std::sync::Arc;
 
+use ori_artifact::DecodeError;
 use ori_graph::{Input, JobContext, JobId, StageError};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -70,7 +71,7 @@ pub(crate) fn params_json<S: PipelineStage>(params: &S::Params) -> serde_json::V
 /// What flows between stages: a value with its own checked encoding.
 pub trait Artifact: Sized {
     fn encode(&self) -> Vec<u8>;
-    fn decode(bytes: &[u8]) -> Result<Self, String>;
+    fn decode(bytes: &[u8]) -> Result<Self, DecodeError>;
 }
 
 /// A named output (or input) of jobs, holding a `T`.
@@ -121,7 +122,7 @@ impl<T: Artifact> Slot<T> {
         let bytes = build
             .read_output(job, self.name)
             .map_err(|e| e.to_string())?;
-        T::decode(&bytes)
+        T::decode(&bytes).map_err(|e| e.to_string())
     }
 }
 

@@ -1,11 +1,12 @@
 //! package: the `.ori` file (`ori_package`, `docs/FORMAT.md`) from the maps' frames, the
 //! selection table, the PLT and the textures.
 
-use ori_bake::{ReliefMap, ReliefSet};
+use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
 use ori_package::{
     Manifest, PltInfo, SelectionEntry, SelectionTable, Source, Sphere, TextureFormat, TextureRef,
 };
+use ori_relief::{ReliefMap, ReliefSet};
 use serde::{Deserialize, Serialize};
 
 use super::bake::MAPS;
@@ -26,7 +27,7 @@ impl Artifact for PackageBytes {
     }
 
     /// Taken as it is: the release checks it as a reader would (`release::entry`).
-    fn decode(bytes: &[u8]) -> Result<PackageBytes, String> {
+    fn decode(bytes: &[u8]) -> Result<PackageBytes, DecodeError> {
         Ok(PackageBytes(bytes.to_vec()))
     }
 }

@@ -1,5 +1,6 @@
 //! plt: GC(s0) and the projected length threshold, from the selection table.
 
+use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
 use ori_plt::Plt;
 use serde::{Deserialize, Serialize};
@@ -14,8 +15,8 @@ impl Artifact for Plt {
         Plt::encode(self)
     }
 
-    fn decode(bytes: &[u8]) -> Result<Plt, String> {
-        Plt::decode(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<Plt, DecodeError> {
+        Plt::decode(bytes)
     }
 }
 

@@ -1,6 +1,7 @@
 //! select: for each of the 320 evaluation directions, the impostors to draw (`[select]`),
 //! measured by the CPU evaluator or, with `--backend gpu`, the wgpu renderer.
 
+use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
 use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
@@ -15,8 +16,8 @@ impl Artifact for Selection {
         Selection::encode(self)
     }
 
-    fn decode(bytes: &[u8]) -> Result<Selection, String> {
-        Selection::decode(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<Selection, DecodeError> {
+        Selection::decode(bytes)
     }
 }
 

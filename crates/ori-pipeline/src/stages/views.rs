@@ -1,7 +1,8 @@
 //! views: the impostor directions (`[views]`), planned from the canonical mesh.
 
+use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
-use ori_views::{ViewParams, ViewPlan};
+use ori_views::{ViewError, ViewParams, ViewPlan};
 
 use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH};
 
@@ -13,8 +14,14 @@ impl Artifact for ViewPlan {
         ViewPlan::encode(self)
     }
 
-    fn decode(bytes: &[u8]) -> Result<ViewPlan, String> {
-        ViewPlan::decode(bytes).map_err(|e| e.to_string())
+    fn decode(bytes: &[u8]) -> Result<ViewPlan, DecodeError> {
+        ViewPlan::decode(bytes).map_err(|e| match e {
+            ViewError::Decode(e) => e,
+            other => DecodeError {
+                kind: "view plan",
+                detail: other.to_string(),
+            },
+        })
     }
 }
 
