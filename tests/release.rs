@@ -260,3 +260,37 @@ fn auto_resolution_picks_the_smallest_that_reaches_the_target_and_caches_each_tr
     let again = p.build(&[]);
     assert_eq!(ran_all(&again), [0; 8], "{}", text(&again));
 }
+
+#[test]
+fn a_rebuild_repairs_a_tampered_package_and_ignores_a_damaged_release_memo() {
+    let p = Project::new(&["bunny", "box-vertex-colors"]);
+    ok(&p.build(&[]));
+    let clean = tree(&p.path("out"));
+    // Once the memo knows the release, a no-op build still catches a package changed in place
+    // (same size, other bytes).
+    ok(&p.build(&[]));
+    let package = p.path("out/bunny/bunny_npm_lowres.ori");
+    let mut bytes = fs::read(&package).unwrap();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0xff;
+    fs::write(&package, &bytes).unwrap();
+    assert!(!verify(&p.path("out")).status.success());
+    let out = p.build(&[]);
+    ok(&out);
+    assert_eq!(ran(&out, "package"), 0, "{}", text(&out));
+    same_release(&clean, &tree(&p.path("out")), "after repairing a package");
+    // Damaged memo entries are checked again, not believed.
+    let checked = p.path("cache/release-checked");
+    let entries: Vec<_> = fs::read_dir(&checked)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(entries.len(), 2);
+    fs::write(&entries[0], b"{\"blake3\": 7}").unwrap();
+    fs::write(&entries[1], b"\xff\xfe").unwrap();
+    fs::write(p.path("cache/release-stat-memo.json"), b"not json").unwrap();
+    fs::remove_file(&package).unwrap();
+    ok(&p.build(&[]));
+    same_release(&clean, &tree(&p.path("out")), "after damaging the memo");
+    assert!(verify(&p.path("out")).status.success());
+}

@@ -212,7 +212,8 @@ pub fn build_assets(
     let mut warnings = Vec::new();
     let mut report_path = None;
     if write_release {
-        let written = release::write(&out_dir, &packages)
+        let memo = release::ReleaseMemo::open(runs.cache.root());
+        let written = release::write(&out_dir, &packages, &memo)
             .map_err(|(path, message)| PipelineError::Output { path, message })?;
         warnings.extend(written.warnings);
         let path = out_dir.join(REPORT_JSON);

@@ -5,19 +5,20 @@ use std::path::Path;
 
 use crate::PipelineError;
 use crate::plan::AssetJobs;
-use crate::release;
+use crate::release::{self, BuiltPackage};
 use crate::stages::bake::MAPS;
 
 /// Write every package as a folder `<dir>/<package path without .ori>/`.
-pub fn explode(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<(), PipelineError> {
-    for (name, bytes) in packages {
-        let rel = release::package_path(name);
+pub fn explode(dir: &Path, packages: &[BuiltPackage<'_>]) -> Result<(), PipelineError> {
+    for p in packages {
+        let rel = release::package_path(&p.name);
         let folder = dir.join(rel.trim_end_matches(".ori"));
         let fail = |message: String| PipelineError::Output {
             path: folder.clone(),
             message,
         };
-        match ori_package::read_any(bytes).map_err(|e| fail(e.to_string()))? {
+        let bytes = (p.read)().map_err(fail)?;
+        match ori_package::read_any(&bytes).map_err(|e| fail(e.to_string()))? {
             ori_package::AnyPackage::Single(package) => {
                 ori_package::explode(&package, &folder).map_err(|e| fail(e.to_string()))?;
             }

@@ -7,27 +7,44 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use ori_graph::{BlobRef, ContentHash, SourceHasher, SourceRules};
+use serde::{Deserialize, Serialize};
 use walkdir::WalkDir;
 
 pub use ori_release::{RELEASE_JSON, Release, ReleaseEntry, package_path};
 
-/// The release entry of a package, checking the package as a reader would and that it was
-/// built from the asset `name`.
-pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
+/// A built asset's package, as the cache holds it: read only when the release needs it.
+pub struct BuiltPackage<'a> {
+    pub name: String,
+    pub blob: BlobRef,
+    /// The bytes, verified against `blob`.
+    pub read: Box<dyn Fn() -> Result<Vec<u8>, String> + 'a>,
+}
+
+/// What a release entry says about a package's content, found by checking the package as a
+/// reader would: a pure function of its bytes, so it is remembered by their hash.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Checked {
+    /// The hash of the bytes checked (what the memo file is named after).
+    blake3: String,
+    bytes: u64,
+    /// The asset the package says it was built from.
+    source: String,
+    plt: f64,
+    plt_at_least: bool,
+    texture_bytes: u64,
+    nodes: Option<usize>,
+}
+
+fn check(bytes: &[u8]) -> Result<Checked, String> {
     let package = ori_package::read_any(bytes).map_err(|e| format!("invalid package: {e}"))?;
-    let source = &package.root().manifest.source.name;
-    if source != name {
-        return Err(format!(
-            "the package was built from `{source}`, but is listed as `{name}`"
-        ));
-    }
     // A hierarchy's PLT is its root's: the whole object drawn as one ORI.
     let plt = &package.root().manifest.plt;
-    Ok(ReleaseEntry {
-        name: name.to_string(),
-        package: package_path(name),
+    Ok(Checked {
         blake3: blake3::hash(bytes).to_hex().to_string(),
         bytes: bytes.len() as u64,
+        source: package.root().manifest.source.name.clone(),
         plt: plt.pixels,
         plt_at_least: plt.at_least,
         texture_bytes: package.texture_bytes(),
@@ -36,6 +53,78 @@ pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
             ori_package::AnyPackage::Hierarchy(h) => Some(h.nodes.len()),
         },
     })
+}
+
+/// The release entry of a checked package, if it was built from the asset `name`.
+fn entry_of(name: &str, checked: Checked) -> Result<ReleaseEntry, String> {
+    if checked.source != name {
+        return Err(format!(
+            "the package was built from `{}`, but is listed as `{name}`",
+            checked.source
+        ));
+    }
+    Ok(ReleaseEntry {
+        name: name.to_string(),
+        package: package_path(name),
+        blake3: checked.blake3,
+        bytes: checked.bytes,
+        plt: checked.plt,
+        plt_at_least: checked.plt_at_least,
+        texture_bytes: checked.texture_bytes,
+        nodes: checked.nodes,
+    })
+}
+
+/// The release entry of a package, checking the package as a reader would and that it was
+/// built from the asset `name`.
+pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
+    entry_of(name, check(bytes)?)
+}
+
+/// What earlier builds learnt, kept in the cache folder so that a release whose packages are
+/// unchanged is written without reading them: the check of each package content seen (by
+/// hash), and a stat memo of the release folders' files (the same sealed memo, with its racy
+/// window, that sources use).
+pub struct ReleaseMemo {
+    checked_dir: PathBuf,
+    files: SourceHasher,
+}
+
+impl ReleaseMemo {
+    pub fn open(cache_root: &Path) -> ReleaseMemo {
+        ReleaseMemo {
+            checked_dir: cache_root.join("release-checked"),
+            files: SourceHasher::new(
+                cache_root.join("release-stat-memo.json"),
+                SourceRules::default(),
+            ),
+        }
+    }
+
+    fn checked_path(&self, hash: &ContentHash) -> PathBuf {
+        self.checked_dir.join(format!("{}.json", hash.to_hex()))
+    }
+
+    /// The remembered check of the content `blob`; `None` (check again) when there is none or
+    /// it is damaged or for other bytes.
+    fn checked(&self, blob: &BlobRef) -> Option<Checked> {
+        let bytes = std::fs::read(self.checked_path(&blob.hash)).ok()?;
+        let checked: Checked = serde_json::from_slice(&bytes).ok()?;
+        (checked.blake3 == blob.hash.to_hex() && checked.bytes == blob.size).then_some(checked)
+    }
+
+    /// Remember a check; a failure to write only costs a re-check next time.
+    fn remember(&self, checked: &Checked, hash: &ContentHash) {
+        let json = serde_json::to_vec(checked).expect("a check serialises");
+        let _ = std::fs::create_dir_all(&self.checked_dir)
+            .and_then(|()| ori_graph::write_atomic(&self.checked_path(hash), &json));
+    }
+
+    /// Whether the file at `path` holds the content `blob` (from the stat memo when the file
+    /// is unchanged since it was last hashed).
+    fn holds(&self, path: &Path, blob: &BlobRef) -> bool {
+        matches!(self.files.hash(path), Ok(Some(h)) if h == blob.hash)
+    }
 }
 
 /// A release written, and what the user should know about the folder.
@@ -51,14 +140,31 @@ pub struct Written {
 /// The builder removes only what it wrote: the packages the folder's previous `release.json`
 /// lists that are not part of this release, so the folder is the same as a clean build's.
 /// Any other `.ori` file is left alone, with a warning. A package whose bytes are already
-/// there is not rewritten.
-pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Written, (PathBuf, String)> {
+/// there is not rewritten, and is not read when `memo` knows both its check and the file.
+pub fn write(
+    dir: &Path,
+    packages: &[BuiltPackage<'_>],
+    memo: &ReleaseMemo,
+) -> Result<Written, (PathBuf, String)> {
     let mut warnings = Vec::new();
     let previous = previous_packages(dir, &mut warnings);
     let mut assets = Vec::new();
     let mut seen = BTreeSet::new();
-    for (name, bytes) in packages {
-        let e = entry(name, bytes).map_err(|m| (PathBuf::from(name), m))?;
+    for p in packages {
+        let name = &p.name;
+        let fail = |m: String| (PathBuf::from(name), m);
+        let mut bytes = None;
+        let checked = match memo.checked(&p.blob) {
+            Some(c) => c,
+            None => {
+                let b = (p.read)().map_err(fail)?;
+                let c = check(&b).map_err(fail)?;
+                memo.remember(&c, &p.blob.hash);
+                bytes = Some(b);
+                c
+            }
+        };
+        let e = entry_of(name, checked).map_err(fail)?;
         if !seen.insert(e.package.clone()) {
             return Err((
                 dir.join(&e.package),
@@ -66,9 +172,14 @@ pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Written, (Pat
             ));
         }
         let path = dir.join(&e.package);
-        if std::fs::read(&path).ok().as_deref() != Some(bytes.as_slice()) {
-            ori_graph::write_atomic(&path, bytes)
+        if !memo.holds(&path, &p.blob) {
+            let bytes = match bytes {
+                Some(b) => b,
+                None => (p.read)().map_err(fail)?,
+            };
+            ori_graph::write_atomic(&path, &bytes)
                 .map_err(|err| (path.clone(), format!("cannot write: {err}")))?;
+            memo.files.forget(&path);
         }
         assets.push(e);
     }
@@ -107,6 +218,9 @@ pub fn write(dir: &Path, packages: &[(String, Vec<u8>)]) -> Result<Written, (Pat
     let mut json = serde_json::to_vec_pretty(&release).expect("release serialises");
     json.push(b'\n');
     ori_graph::write_atomic(&path, &json).map_err(|err| (path, format!("cannot write: {err}")))?;
+    if let Err(e) = memo.files.save() {
+        warnings.push(format!("cannot save the release folder's stat memo: {e}"));
+    }
     Ok(Written { release, warnings })
 }
 

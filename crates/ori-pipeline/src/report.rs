@@ -10,6 +10,7 @@ use ori_release::{
 };
 
 use crate::plan::AssetJobs;
+use crate::release::BuiltPackage;
 use crate::stages::Artifact;
 use crate::stages::bake::MAPS;
 use crate::stages::ingest::{MESH, SUMMARY};
@@ -18,10 +19,10 @@ use crate::stages::plt::PLT;
 use crate::stages::select::SELECTION;
 
 /// What the final run produced.
-pub struct Collected {
+pub struct Collected<'a> {
     pub report: BuildReport,
-    /// (asset name, package bytes) of every asset that built.
-    pub packages: Vec<(String, Vec<u8>)>,
+    /// The package of every asset that built.
+    pub packages: Vec<BuiltPackage<'a>>,
     /// Outputs that could not be read back (each also fails its asset).
     pub unreadable: usize,
 }
@@ -92,14 +93,14 @@ fn quality(build: &Build<'_>, jobs: &AssetJobs) -> Result<QualityReport, String>
 
 /// Read every asset's results from the final run. `resolutions` and `auto` are per asset,
 /// in the order of `jobs`.
-pub fn collect(
+pub fn collect<'a>(
     graph: &Graph,
-    build: &Build<'_>,
+    build: &'a Build<'_>,
     jobs: &[AssetJobs],
     resolutions: &[u32],
     auto: &[Option<AutoReport>],
     reading: &Reading<'_>,
-) -> Collected {
+) -> Collected<'a> {
     let mut report = BuildReport::default();
     let mut unreadable = 0;
     let mut packages = Vec::new();
@@ -145,12 +146,17 @@ pub fn collect(
         };
         let readable = status == AssetStatus::Ok && reading.outputs;
         if readable {
-            let outputs =
-                quality(build, j).and_then(|q| Ok((q, PACKAGE.read_from(build, j.package)?)));
-            match outputs {
-                Ok((q, package)) => {
+            let package = j.package;
+            let blob = build.result(package).outputs.get(PACKAGE.name).cloned();
+            let blob = blob.ok_or_else(|| format!("output `{}` is missing", PACKAGE.name));
+            match quality(build, j).and_then(|q| Ok((q, blob?))) {
+                Ok((q, blob)) => {
                     entry.quality = Some(q);
-                    packages.push((j.asset.name.clone(), package.0));
+                    packages.push(BuiltPackage {
+                        name: j.asset.name.clone(),
+                        blob,
+                        read: Box::new(move || PACKAGE.read_from(build, package).map(|p| p.0)),
+                    });
                 }
                 Err(e) => fail(&mut entry, e),
             }
