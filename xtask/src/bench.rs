@@ -6,6 +6,7 @@ use std::process::{Command, ExitCode};
 use std::time::{Duration, Instant};
 
 use clap::Subcommand;
+use ori_pipeline::ori::{self, OriParams};
 
 #[derive(Subcommand)]
 pub enum Bench {
@@ -25,8 +26,8 @@ pub enum Bench {
         #[arg(long, default_value_t = 5)]
         runs: usize,
     },
-    /// Time selection + PLT at the defaults (best:6, s0 = 256, 320 directions) on real models
-    /// of growing size, with the default thread pool.
+    /// Time selection (coverage masks, then the subset search) + PLT at the defaults (best:6,
+    /// s0 = 256, 320 directions) on real models of growing size, with the default thread pool.
     Select {
         /// Timed runs per model (the median is reported).
         #[arg(long, default_value_t = 3)]
@@ -189,16 +190,35 @@ const GROWING_MODELS: [&str; 4] = [
     "stanford/dragon/dragon_res2_binary.ply",
 ];
 
+/// The default ORI parameters, without placement (for benches that time later steps).
+fn unplaced() -> OriParams {
+    OriParams {
+        place: ori_place::PlaceParams {
+            max_moves: 0,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
+}
+
+fn load(rel: &str) -> Result<ori_mesh::Mesh, String> {
+    let path = shared_models().join(rel);
+    Ok(
+        ori_mesh::load_file(&path, &ori_mesh::LoadOptions::default())
+            .map_err(|e| e.to_string())?
+            .mesh,
+    )
+}
+
 fn bake(runs: usize) -> Result<(), String> {
-    let views = ori_views::ViewParams::default();
-    let bake = ori_bake::BakeParams::default();
+    let params = unplaced();
     println!(
         "views ({:?}, n = {}) + bake ({} maps at {}^2, supersample {}), {} threads, median of {runs}",
-        views.strategy,
-        views.count,
-        views.count,
-        bake.resolution,
-        bake.supersample,
+        params.views.strategy,
+        params.views.count,
+        params.views.count,
+        params.bake.resolution,
+        params.bake.supersample,
         rayon::current_num_threads()
     );
     println!(
@@ -206,18 +226,12 @@ fn bake(runs: usize) -> Result<(), String> {
         "model", "faces", "views s", "bake s", "total s"
     );
     for rel in GROWING_MODELS {
-        let path = shared_models().join(rel);
-        let mesh = ori_mesh::load_file(&path, &ori_mesh::LoadOptions::default())
-            .map_err(|e| e.to_string())?
-            .mesh;
+        let mesh = load(rel)?;
         let (mut tv, mut tb) = (Vec::new(), Vec::new());
-        for _ in 0..runs {
-            let start = Instant::now();
-            let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
-            tv.push(start.elapsed());
-            let start = Instant::now();
-            ori_bake::bake(&mesh, &plan.directions, &bake).map_err(|e| e.to_string())?;
-            tb.push(start.elapsed());
+        for _ in 0..runs.max(1) {
+            let maps = ori::build_maps(&mesh, &params).map_err(|e| e.to_string())?;
+            tv.push(maps.times.views);
+            tb.push(maps.times.bake);
         }
         let (v, b) = (median(tv), median(tb));
         println!(
@@ -236,28 +250,24 @@ fn place(runs: usize) -> Result<(), String> {
         "{:<36} {:>7} {:>10} {:>6} {:>14}",
         "model", "faces", "place s", "moves", "worst px"
     );
-    let select = ori_select::SelectParams::default();
-    let bake = ori_bake::BakeParams::default();
-    let measure = ori_place::Measure {
-        bake: &bake,
-        eval: &select.eval_params(),
-        closest: select.rule.m() as usize,
-        goal_pixels: select.goal_pixels(),
-        entropy_size: ori_views::ViewParams::default().item_buffer_size,
-    };
+    let params = OriParams::default();
     for rel in GROWING_MODELS {
-        let path = shared_models().join(rel);
-        let mesh = ori_mesh::load_file(&path, &Default::default())
-            .map_err(|e| e.to_string())?
-            .mesh;
-        let plan = ori_views::plan_views(&mesh, &Default::default()).map_err(|e| e.to_string())?;
+        let mesh = load(rel)?;
+        let plan = ori_views::plan_views(&mesh, &params.views).map_err(|e| e.to_string())?;
         let mut times = Vec::new();
         let mut placed = None;
         for _ in 0..runs.max(1) {
             let t = Instant::now();
             placed = Some(
-                ori_place::place(&mesh, &plan, &measure, &Default::default())
-                    .map_err(|e| e.to_string())?,
+                ori::place(
+                    &mesh,
+                    &plan,
+                    &params.place,
+                    &params.bake,
+                    &params.select,
+                    params.views.item_buffer_size,
+                )
+                .map_err(|e| e.to_string())?,
             );
             times.push(t.elapsed());
         }
@@ -275,39 +285,57 @@ fn place(runs: usize) -> Result<(), String> {
     Ok(())
 }
 
+/// Selection in its two parts (the coverage masks of each view's closest impostors, then the
+/// subset search on them) and the PLT, on unplaced maps.
 fn select(runs: usize) -> Result<(), String> {
+    let params = unplaced();
+    let select = &params.select;
     println!(
-        "{:<36} {:>7} {:>10} {:>10} {:>10}",
-        "model", "faces", "select s", "plt s", "total s"
+        "selection ({}, goal {}%, s0 = {}) + PLT, {} threads, median of {runs}",
+        select.rule,
+        select.goal_percent,
+        select.s0,
+        rayon::current_num_threads()
     );
+    println!(
+        "{:<36} {:>7} {:>8} {:>8} {:>8} {:>8} {:>6}",
+        "model", "faces", "masks s", "select s", "plt s", "total s", "PLT"
+    );
+    let directions = ori_views::evaluation_directions();
     for rel in GROWING_MODELS {
-        let path = shared_models().join(rel);
-        let mesh = ori_mesh::load_file(&path, &Default::default())
+        let mesh = load(rel)?;
+        let set = ori::build_maps(&mesh, &params)
             .map_err(|e| e.to_string())?
-            .mesh;
-        let plan = ori_views::plan_views(&mesh, &Default::default()).map_err(|e| e.to_string())?;
-        let set = ori_bake::bake(&mesh, &plan.directions, &Default::default())
-            .map_err(|e| e.to_string())?;
-        let params = ori_select::SelectParams::default();
-        let (mut sel_t, mut plt_t) = (Vec::new(), Vec::new());
+            .set;
+        let (mut tm, mut ts, mut tp) = (Vec::new(), Vec::new(), Vec::new());
+        let mut plt = None;
         for _ in 0..runs.max(1) {
             let t = Instant::now();
-            let selection = ori_select::select(&mesh, &set, &params).map_err(|e| e.to_string())?;
-            sel_t.push(t.elapsed());
+            let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
+                .map_err(|e| e.to_string())?;
+            let masks =
+                ori_select::all_view_masks(&evaluator, &directions, select.rule.m() as usize)
+                    .map_err(|e| e.to_string())?;
+            tm.push(t.elapsed());
             let t = Instant::now();
-            let plt = ori_plt::estimate(selection.s0, &selection.missed());
-            plt_t.push(t.elapsed());
-            std::hint::black_box(plt);
+            let selection = ori_select::select_from_masks(&masks, select, set.maps.len())
+                .map_err(|e| e.to_string())?;
+            ts.push(t.elapsed());
+            let t = Instant::now();
+            plt = Some(ori::plt(&selection));
+            tp.push(t.elapsed());
         }
-        let (s, p) = (median(sel_t), median(plt_t));
+        let (m, s, p) = (median(tm), median(ts), median(tp));
         let name = Path::new(rel).file_name().unwrap().to_string_lossy();
         println!(
-            "{:<36} {:>7} {:>10.3} {:>10.6} {:>10.3}",
+            "{:<36} {:>7} {:>8.3} {:>8.3} {:>8.4} {:>8.3} {:>6}",
             name,
             mesh.triangles.len(),
+            m.as_secs_f64(),
             s.as_secs_f64(),
             p.as_secs_f64(),
-            (s + p).as_secs_f64()
+            (m + s + p).as_secs_f64(),
+            plt.expect("one run at least").to_string()
         );
     }
     Ok(())

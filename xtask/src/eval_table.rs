@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use ori_eval::{EvalParams, Evaluator};
+use ori_pipeline::ori::OriParams;
 use ori_select::{Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
 use rayon::prelude::*;
 
@@ -81,7 +82,6 @@ pub fn run(args: Args) -> ExitCode {
 }
 
 fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
-    let started = Instant::now();
     let mesh = ori_mesh::load_file(&args.model, &Default::default())
         .map_err(|e| e.to_string())?
         .mesh;
@@ -92,7 +92,6 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         search_radius_deg: args.search_radius_deg.unwrap_or(defaults.search_radius_deg),
         ..defaults
     };
-    let plan = ori_views::plan_views(&mesh, &views).map_err(|e| e.to_string())?;
     let bake = ori_bake::BakeParams {
         resolution: args.resolution,
         supersample: args.supersample,
@@ -104,22 +103,17 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
             .unwrap_or(ori_place::PlaceParams::default().max_moves),
         ..Default::default()
     };
-    let measure = ori_place::Measure {
-        bake: &bake,
-        eval: &params.eval_params(),
-        closest: params.rule.m() as usize,
-        goal_pixels: params.goal_pixels(),
-        entropy_size: views.item_buffer_size,
+    let ori_params = OriParams {
+        views,
+        place,
+        bake,
+        select: params.clone(),
     };
-    let planned = started.elapsed();
-    let placed = ori_place::place(&mesh, &plan, &measure, &place).map_err(|e| e.to_string())?;
-    let placing = started.elapsed() - planned;
-    let plan = placed.plan;
-    let set = ori_bake::bake(&mesh, &plan.directions, &bake).map_err(|e| e.to_string())?;
-    let built = started.elapsed();
+    let maps = ori_pipeline::ori::build_maps(&mesh, &ori_params).map_err(|e| e.to_string())?;
+    let (placed, set) = (&maps.placement, &maps.set);
 
     let eval: EvalParams = params.eval_params();
-    let evaluator = Evaluator::new(&mesh, &set, &eval).map_err(|e| e.to_string())?;
+    let evaluator = Evaluator::new(&mesh, set, &eval).map_err(|e| e.to_string())?;
     let rules = [
         Rule::Closest(1),
         Rule::Closest(2),
@@ -140,7 +134,7 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         args.model.display(),
         mesh.triangles.len(),
         set.maps.len(),
-        views.strategy.name(),
+        ori_params.views.strategy.name(),
         params.s0,
         params.linear_steps,
         params.binary_steps,
@@ -182,9 +176,9 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
     );
     println!(
         "time: plan {:.2} s, placement {:.2} s, bake {:.2} s, evaluation of {} views {:.2} s",
-        planned.as_secs_f64(),
-        placing.as_secs_f64(),
-        (built - planned - placing).as_secs_f64(),
+        maps.times.views.as_secs_f64(),
+        maps.times.place.as_secs_f64(),
+        maps.times.bake.as_secs_f64(),
         directions.len(),
         evaluated.as_secs_f64()
     );

@@ -14,6 +14,9 @@
 //!    release folder; [`outputs`]: `--explode` and `--dump-maps`; [`summary`]: the table
 //!    printed at the end.
 //!
+//! [`ori`] is the chain of steps that makes one ORI from a mesh (views, place, bake, select,
+//! plt); the stages run it one cached step per job, `eval-table` and the benches whole.
+//!
 //! [`build`] strings them together for each [`Mode`]. Data flows one way: model file ->
 //! ingest (canonical mesh) -> later stages; no module here reads back a later one's output
 //! except through the graph.
@@ -23,6 +26,7 @@ pub mod config;
 pub mod discover;
 pub mod gpu_select;
 pub mod hierarchy;
+pub mod ori;
 pub mod outputs;
 pub mod plan;
 pub mod release;

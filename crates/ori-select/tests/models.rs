@@ -1,7 +1,5 @@
-//! Selection on the Stanford scans: the quality it reaches, the same table for any thread
-//! count, and the artifact's round trip.
-
-use std::time::Instant;
+//! Selection on a Stanford scan: the same table for any thread count, and the artifact's
+//! round trip. (The quality the whole chain reaches is tested in ori-pipeline's `tests/ori.rs`.)
 
 use ori_bake::{BakeParams, ReliefSet};
 use ori_mesh::Mesh;
@@ -22,92 +20,6 @@ fn prepared(relative: &str) -> (Mesh, ReliefSet) {
     let plan = ori_views::plan_views(&mesh, &Default::default()).expect("plan");
     let set = ori_bake::bake(&mesh, &plan.directions, &BakeParams::default()).expect("bake");
     (mesh, set)
-}
-
-/// The model through every stage before selection at the pipeline's defaults: planned,
-/// placed (`ori_place`, measured with the default selection) and baked. Also returns the
-/// placement's worst view (pixels missed with all M closest impostors).
-fn placed(relative: &str) -> (Mesh, ReliefSet, u32) {
-    let mesh = load(relative);
-    let plan = ori_views::plan_views(&mesh, &Default::default()).expect("plan");
-    let select = SelectParams::default();
-    let measure = ori_place::Measure {
-        bake: &BakeParams::default(),
-        eval: &select.eval_params(),
-        closest: select.rule.m() as usize,
-        goal_pixels: select.goal_pixels(),
-        entropy_size: ori_views::ViewParams::default().item_buffer_size,
-    };
-    let placed = ori_place::place(&mesh, &plan, &measure, &Default::default()).expect("place");
-    let set = ori_bake::bake(&mesh, &placed.plan.directions, &BakeParams::default()).expect("bake");
-    (mesh, set, placed.worst_after)
-}
-
-/// Selection with the defaults (best:6, goal 0.2%, s0 = 256, 16 + 7 steps, wall threshold
-/// 0.25) held to average and maximum coverage error and impostors per view.
-fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Selection {
-    let (mesh, set, worst) = placed(relative);
-    let started = Instant::now();
-    let sel = select(&mesh, &set, &SelectParams::default()).expect("select");
-    let s = sel.stats();
-    eprintln!(
-        "{relative}: min {:.3}% max {:.3}% avg {:.3}%, {:.2} impostors per view, {:?}, {:.2} s",
-        s.min_percent,
-        s.max_percent,
-        s.avg_percent,
-        s.avg_impostors,
-        s.views_by_count,
-        started.elapsed().as_secs_f64()
-    );
-    assert_eq!(sel.entries.len(), 320);
-    assert!(
-        s.avg_percent <= avg,
-        "average {:.3}% > {avg}%",
-        s.avg_percent
-    );
-    assert!(
-        s.max_percent <= max,
-        "maximum {:.3}% > {max}%",
-        s.max_percent
-    );
-    assert!(
-        s.avg_impostors <= impostors,
-        "{:.2} impostors per view",
-        s.avg_impostors
-    );
-    // The placement measured what the selection finds: no view is worse than the worst the
-    // search saw, or than the goal where it stopped within it.
-    let goal = SelectParams::default().goal_pixels();
-    assert!(
-        sel.missed().into_iter().max().unwrap() <= worst.max(goal),
-        "placement saw {worst} pixels at worst"
-    );
-    sel
-}
-
-#[test]
-fn bunny_quality() {
-    // The paper's armadillo figures are 0.17 / 0.37 %, 2.9 impostors per view and PLT 270
-    // with 256 x 256 maps. Measured with placement: 0.101 / 0.200 %, 2.33, PLT 500 (without
-    // it the worst view, looking up through the holes in the scan's base, lost 1.573 %).
-    // Held with about 10 % margin.
-    let sel = holds("stanford/bunny/stanford-bunny.obj", 0.11, 0.22, 2.55);
-    let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 450.0, "PLT {plt}");
-}
-
-#[test]
-fn armadillo_quality() {
-    // Measured with placement: 0.118 / 0.200 %, 2.65, PLT 500 (without it 0.130 / 0.362 %,
-    // 2.72, PLT 277). Held with about 10 % margin.
-    let sel = holds(
-        "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        0.13,
-        0.22,
-        2.9,
-    );
-    let plt = ori_plt::estimate(sel.s0, &sel.missed());
-    assert!(plt.pixels() >= 450.0, "PLT {plt}");
 }
 
 #[test]

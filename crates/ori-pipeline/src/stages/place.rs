@@ -29,15 +29,15 @@ impl PipelineStage for Place {
     fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let plan = PLAN.read(job)?;
-        let measure = ori_place::Measure {
-            bake: &params.bake,
-            eval: &params.select.eval_params(),
-            closest: params.select.rule.m() as usize,
-            goal_pixels: params.select.goal_pixels(),
-            entropy_size: params.item_buffer_size,
-        };
-        let placed = ori_place::place(&mesh, &plan, &measure, &params.place)
-            .map_err(|e| in_asset(job, e))?;
+        let placed = crate::ori::place(
+            &mesh,
+            &plan,
+            &params.place,
+            &params.bake,
+            &params.select,
+            params.item_buffer_size,
+        )
+        .map_err(|e| in_asset(job, e))?;
         PLAN.write(job, &placed.plan);
         Ok(())
     }

@@ -34,8 +34,7 @@ impl PipelineStage for PltStage {
 
     fn run(&self, _: NoParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let selection = SELECTION.read(job)?;
-        let missed: Vec<u32> = selection.entries.iter().map(|e| e.missed).collect();
-        PLT.write(job, &ori_plt::estimate(selection.s0, &missed));
+        PLT.write(job, &crate::ori::plt(&selection));
         Ok(())
     }
 }

@@ -1,0 +1,139 @@
+//! One ORI from a mesh and its parameters, as a flat list of named steps:
+//!
+//! 1. views: plan the impostor directions (`ori_views`);
+//! 2. place: move them where the evaluator shows they are needed (`ori_place`);
+//! 3. bake: render a relief map per direction (`ori_bake`);
+//! 4. select: the per-view selection table (`ori_select`);
+//! 5. plt: GC(s0) and the projected length threshold (`ori_plt`).
+//!
+//! The build graph runs each step as its own cached job (`stages`), calling the step functions
+//! here; `eval-table` and the benches call [`build_maps`] or [`build_ori`] whole. Either way
+//! the same parameters give the same bytes.
+
+use std::time::{Duration, Instant};
+
+use ori_bake::BakeParams;
+use ori_mesh::Mesh;
+use ori_place::{Measure, PlaceError, PlaceParams, Placement};
+use ori_plt::Plt;
+use ori_relief::ReliefSet;
+use ori_select::{SelectParams, Selection};
+use ori_views::{ViewParams, ViewPlan};
+
+/// Every parameter that shapes an ORI's maps, table and PLT.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OriParams {
+    pub views: ViewParams,
+    pub place: PlaceParams,
+    pub bake: BakeParams,
+    pub select: SelectParams,
+}
+
+/// Which step failed, and why.
+#[derive(Debug, thiserror::Error)]
+pub enum OriError {
+    #[error("views: {0}")]
+    Views(#[from] ori_views::ViewError),
+    #[error("place: {0}")]
+    Place(#[from] PlaceError),
+    #[error("bake: {0}")]
+    Bake(#[from] ori_bake::BakeError),
+    #[error("select: {0}")]
+    Select(#[from] ori_select::SelectError),
+}
+
+/// Step 2: placement, measured with the bake and the selection that come after it (the
+/// result depends on them) and the views' item-buffer size for entropies.
+pub fn place(
+    mesh: &Mesh,
+    plan: &ViewPlan,
+    place: &PlaceParams,
+    bake: &BakeParams,
+    select: &SelectParams,
+    item_buffer_size: u32,
+) -> Result<Placement, PlaceError> {
+    let measure = Measure {
+        bake,
+        eval: &select.eval_params(),
+        closest: select.rule.m() as usize,
+        goal_pixels: select.goal_pixels(),
+        entropy_size: item_buffer_size,
+    };
+    ori_place::place(mesh, plan, &measure, place)
+}
+
+/// Step 5: the PLT of a selection table.
+pub fn plt(selection: &Selection) -> Plt {
+    ori_plt::estimate(selection.s0, &selection.missed())
+}
+
+/// How long each step took.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StepTimes {
+    pub views: Duration,
+    pub place: Duration,
+    pub bake: Duration,
+    pub select: Duration,
+    pub plt: Duration,
+}
+
+/// Steps 1-3: the placed plan and its relief maps.
+#[derive(Clone, Debug)]
+pub struct Maps {
+    /// The plan as planned, before placement.
+    pub planned: ViewPlan,
+    pub placement: Placement,
+    pub set: ReliefSet,
+    pub times: StepTimes,
+}
+
+/// Steps 1-3: plan, place and bake.
+pub fn build_maps(mesh: &Mesh, params: &OriParams) -> Result<Maps, OriError> {
+    let mut times = StepTimes::default();
+    let start = Instant::now();
+    let planned = ori_views::plan_views(mesh, &params.views)?;
+    times.views = start.elapsed();
+    let start = Instant::now();
+    let placement = place(
+        mesh,
+        &planned,
+        &params.place,
+        &params.bake,
+        &params.select,
+        params.views.item_buffer_size,
+    )?;
+    times.place = start.elapsed();
+    let start = Instant::now();
+    let set = ori_bake::bake(mesh, &placement.plan.directions, &params.bake)?;
+    times.bake = start.elapsed();
+    Ok(Maps {
+        planned,
+        placement,
+        set,
+        times,
+    })
+}
+
+/// A whole ORI: its maps, selection table and PLT.
+#[derive(Clone, Debug)]
+pub struct Ori {
+    pub maps: Maps,
+    pub selection: Selection,
+    pub plt: Plt,
+}
+
+/// All five steps.
+pub fn build_ori(mesh: &Mesh, params: &OriParams) -> Result<Ori, OriError> {
+    let mut maps = build_maps(mesh, params)?;
+    let start = Instant::now();
+    let selection = ori_select::select(mesh, &maps.set, &params.select)?;
+    maps.times.select = start.elapsed();
+    let start = Instant::now();
+    let plt = plt(&selection);
+    maps.times.plt = start.elapsed();
+    Ok(Ori {
+        maps,
+        selection,
+        plt,
+    })
+}
