@@ -22,20 +22,76 @@ pub trait Stage: Send + Sync {
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError>;
 }
 
-/// A stage failed; the message is shown to the user as is, so it should name the file and
-/// the problem.
+/// Why a job failed, by whose fix it needs. Messages name the problem only: the runner adds
+/// the asset once ([`StageError::in_job`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct StageError(pub String);
+pub enum StageError {
+    /// The asset cannot make this step's output (a degenerate mesh, a limit, a table that
+    /// cannot be written): the user changes the asset or its parameters.
+    Asset(String),
+    /// A file the job read is unreadable, malformed or changed under it; `path` names it.
+    File { path: PathBuf, problem: String },
+    /// The job's parameters are not valid for its stage.
+    Params(String),
+    /// An input from an earlier job could not be read, regenerated or decoded.
+    Input { name: String, problem: String },
+    /// The job was wired wrongly (an input or output it needs does not exist): a bug.
+    Plan(String),
+    /// The stage panicked (caught by the runner): a bug.
+    Panic { stage: &'static str, what: String },
+}
 
 impl StageError {
-    pub fn new(message: impl fmt::Display) -> StageError {
-        StageError(message.to_string())
+    pub fn asset(problem: impl fmt::Display) -> StageError {
+        StageError::Asset(problem.to_string())
+    }
+
+    pub fn file(path: impl Into<PathBuf>, problem: impl fmt::Display) -> StageError {
+        StageError::File {
+            path: path.into(),
+            problem: problem.to_string(),
+        }
+    }
+
+    pub fn input(name: impl Into<String>, problem: impl fmt::Display) -> StageError {
+        StageError::Input {
+            name: name.into(),
+            problem: problem.to_string(),
+        }
+    }
+
+    /// The message for the user about a job of `asset` whose own files are `sources`: the
+    /// error, after the asset's name unless it already names one of the asset's own files.
+    pub fn in_job<'a>(&self, asset: &str, mut sources: impl Iterator<Item = &'a Path>) -> String {
+        match self {
+            StageError::File { path, .. } if sources.any(|s| s == path) => self.to_string(),
+            StageError::Panic { stage, what } => {
+                format!(
+                    "internal error in stage `{stage}` for {asset}: {what} (please report this)"
+                )
+            }
+            _ => format!("{asset}: {self}"),
+        }
     }
 }
 
 impl fmt::Display for StageError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.0)
+        match self {
+            StageError::Asset(problem) => f.write_str(problem),
+            StageError::File { path, problem } => write!(f, "{}: {problem}", path.display()),
+            StageError::Params(problem) => write!(f, "bad parameters: {problem}"),
+            StageError::Input { name, problem } => write!(f, "input `{name}`: {problem}"),
+            StageError::Plan(problem) => {
+                write!(f, "{problem} (a bug in the plan; please report it)")
+            }
+            StageError::Panic { stage, what } => {
+                write!(
+                    f,
+                    "internal error in stage `{stage}`: {what} (please report this)"
+                )
+            }
+        }
     }
 }
 

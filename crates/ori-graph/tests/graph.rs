@@ -27,12 +27,9 @@ impl Stage for Upper {
     }
     fn run(&self, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
         self.runs.fetch_add(1, Ordering::SeqCst);
-        let text = String::from_utf8(ctx.input("source")?).map_err(StageError::new)?;
+        let text = String::from_utf8(ctx.input("source")?).map_err(StageError::asset)?;
         if text.contains("FAIL") {
-            return Err(StageError::new(format!(
-                "{}: the text says FAIL",
-                ctx.asset()
-            )));
+            return Err(StageError::asset("the text says FAIL"));
         }
         if text.contains("PANIC") {
             panic!("stage bug");

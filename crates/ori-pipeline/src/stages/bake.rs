@@ -5,7 +5,7 @@ use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
 use ori_relief::ReliefSet;
 
-use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH, views::PLAN};
+use super::{Artifact, PipelineStage, Slot, ingest::MESH, views::PLAN};
 
 /// The relief maps.
 pub const MAPS: Slot<ReliefSet> = Slot::new("maps");
@@ -32,7 +32,7 @@ impl PipelineStage for Bake {
     fn run(&self, params: BakeParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let plan = PLAN.read(job)?;
-        let set = ori_bake::bake(&mesh, &plan.directions, &params).map_err(|e| in_asset(job, e))?;
+        let set = ori_bake::bake(&mesh, &plan.directions, &params).map_err(StageError::asset)?;
         MAPS.write(job, &set);
         Ok(())
     }

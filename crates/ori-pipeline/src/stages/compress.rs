@@ -8,7 +8,7 @@ use ori_relief::{EMPTY_DEPTH, ReliefMap};
 use ori_texture::{Ktx2, Quality, RgbaImage, VkFormat};
 use serde::{Deserialize, Serialize};
 
-use super::{Artifact, PipelineStage, Slot, bake::MAPS, in_asset};
+use super::{Artifact, PipelineStage, Slot, bake::MAPS};
 
 /// For each map, its depth, normal and albedo KTX2 files.
 pub const TEXTURES: Slot<Textures> = Slot::new("textures");
@@ -158,7 +158,7 @@ impl PipelineStage for Compress {
             .enumerate()
             .map(|(i, map)| compress_map(map, &params).map_err(|e| format!("map {i}: {e}")))
             .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| in_asset(job, e))?;
+            .map_err(StageError::asset)?;
         TEXTURES.write(job, &Textures(textures));
         Ok(())
     }

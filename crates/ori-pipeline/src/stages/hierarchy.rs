@@ -4,8 +4,8 @@ use ori_graph::{JobContext, StageError};
 use ori_package::{HierarchyManifest, HierarchyNode, Source, SplitKind};
 use serde::{Deserialize, Serialize};
 
+use super::PipelineStage;
 use super::package::{PACKAGE, PackageBytes};
-use super::{PipelineStage, in_asset};
 use crate::hierarchy::{HierarchyParams, PlannedTree};
 
 /// Parameters of the hierarchy job: the tree, and what its manifest records.
@@ -57,7 +57,7 @@ impl PipelineStage for Hierarchy {
     fn run(&self, p: TreeParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let source = job
             .input_hash(super::ingest::SOURCE)
-            .ok_or_else(|| StageError::new("the hierarchy job has no source input"))?;
+            .ok_or_else(|| StageError::Plan("the hierarchy job has no source input".into()))?;
         let mut packages = Vec::with_capacity(p.nodes.len());
         for i in 0..p.nodes.len() {
             packages.push(job.input(&node_input(i))?);
@@ -78,7 +78,7 @@ impl PipelineStage for Hierarchy {
                 .collect(),
         };
         let bytes =
-            ori_package::write_hierarchy(&manifest, &packages).map_err(|e| in_asset(job, e))?;
+            ori_package::write_hierarchy(&manifest, &packages).map_err(StageError::asset)?;
         PACKAGE.write(job, &PackageBytes(bytes));
         Ok(())
     }

@@ -93,7 +93,7 @@ impl PipelineStage for Ingest {
     fn run(&self, params: IngestJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let path: PathBuf = job
             .source_path(SOURCE)
-            .ok_or_else(|| StageError::new("ingest job without a source file"))?
+            .ok_or_else(|| StageError::Plan("ingest job without a source file".into()))?
             .to_path_buf();
         let bytes = job.input(SOURCE)?;
         let options = LoadOptions {
@@ -103,7 +103,7 @@ impl PipelineStage for Ingest {
         let loaded = ori_mesh::load(&path, &bytes, &options, &mut |uri: &str| {
             job.read_discovered(uri)
         })
-        .map_err(StageError::new)?;
+        .map_err(|e| StageError::file(e.file, e.kind))?;
         for warning in loaded.warnings {
             job.warn(warning);
         }

@@ -58,7 +58,7 @@ impl<S: PipelineStage> ori_graph::Stage for Registered<S> {
 
     fn run(&self, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let params = serde_json::from_value(job.params().clone())
-            .map_err(|e| StageError::new(format!("bad parameters: {e}")))?;
+            .map_err(|e| StageError::Params(e.to_string()))?;
         self.0.run(params, job)
     }
 }
@@ -106,10 +106,10 @@ impl<T> Slot<T> {
 }
 
 impl<T: Artifact> Slot<T> {
-    /// Read and decode this input of a running job; a decode error names the asset.
+    /// Read and decode this input of a running job.
     pub fn read(self, job: &mut JobContext<'_>) -> Result<T, StageError> {
         let bytes = job.input(self.name)?;
-        T::decode(&bytes).map_err(|e| StageError::new(format!("{}: {e}", job.asset())))
+        T::decode(&bytes).map_err(|e| StageError::input(self.name, e))
     }
 
     /// Store this output of a running job.
@@ -119,16 +119,9 @@ impl<T: Artifact> Slot<T> {
 
     /// This output of a finished job, decoded.
     pub fn read_from(self, build: &ori_graph::Build<'_>, job: JobId) -> Result<T, String> {
-        let bytes = build
-            .read_output(job, self.name)
-            .map_err(|e| e.to_string())?;
+        let bytes = build.read_output(job, self.name)?;
         T::decode(&bytes).map_err(|e| e.to_string())
     }
-}
-
-/// Prefix a stage failure with the asset it happened to.
-pub(crate) fn in_asset(job: &JobContext<'_>, e: impl std::fmt::Display) -> StageError {
-    StageError::new(format!("{}: {e}", job.asset()))
 }
 
 /// Every stage, in data-flow order: the one list of what the pipeline runs. The plan takes

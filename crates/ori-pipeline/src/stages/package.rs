@@ -13,7 +13,7 @@ use super::bake::MAPS;
 use super::compress::{CompressParams, CompressQuality, DepthFormat, TEXTURES, compress_map};
 use super::plt::PLT;
 use super::select::SELECTION;
-use super::{Artifact, PipelineStage, Slot, in_asset};
+use super::{Artifact, PipelineStage, Slot};
 
 /// The package file's bytes.
 pub const PACKAGE: Slot<PackageBytes> = Slot::new("package");
@@ -66,13 +66,13 @@ impl PipelineStage for Package {
     fn run(&self, params: PackageParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let source = job
             .input_hash(super::ingest::SOURCE)
-            .ok_or_else(|| StageError::new("the package job has no source input"))?;
+            .ok_or_else(|| StageError::Plan("the package job has no source input".into()))?;
         let set = MAPS.read(job)?;
         let selection = SELECTION.read(job)?;
         let plt = PLT.read(job)?;
         let textures = TEXTURES.read(job)?;
         let manifest = manifest(&params, source.to_hex(), &set, &selection, &plt);
-        let bytes = ori_package::write(&manifest, &textures.0).map_err(|e| in_asset(job, e))?;
+        let bytes = ori_package::write(&manifest, &textures.0).map_err(StageError::asset)?;
         PACKAGE.write(job, &PackageBytes(bytes));
         Ok(())
     }

@@ -6,7 +6,7 @@ use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
 use serde::{Deserialize, Serialize};
 
-use super::{PipelineStage, in_asset, ingest::MESH, views::PLAN};
+use super::{PipelineStage, ingest::MESH, views::PLAN};
 
 pub struct Place;
 
@@ -37,7 +37,7 @@ impl PipelineStage for Place {
             &params.select,
             params.item_buffer_size,
         )
-        .map_err(|e| in_asset(job, e))?;
+        .map_err(StageError::asset)?;
         PLAN.write(job, &placed.plan);
         Ok(())
     }

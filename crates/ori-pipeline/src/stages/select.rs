@@ -6,7 +6,7 @@ use ori_graph::{JobContext, StageError};
 use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
 
-use super::{Artifact, PipelineStage, Slot, bake::MAPS, in_asset, ingest::MESH};
+use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH};
 
 /// The selection table and its statistics.
 pub const SELECTION: Slot<Selection> = Slot::new("selection");
@@ -68,9 +68,9 @@ impl PipelineStage for Select {
         let selection = if params.gpu.is_some() {
             crate::gpu_select::renderer()
                 .and_then(|r| crate::gpu_select::select(&mesh, &set, &params.select, r))
-                .map_err(|e| in_asset(job, format!("GPU selection: {e}")))?
+                .map_err(|e| StageError::asset(format!("GPU selection: {e}")))?
         } else {
-            ori_select::select(&mesh, &set, &params.select).map_err(|e| in_asset(job, e))?
+            ori_select::select(&mesh, &set, &params.select).map_err(StageError::asset)?
         };
         SELECTION.write(job, &selection);
         Ok(())

@@ -4,7 +4,7 @@ use ori_artifact::DecodeError;
 use ori_graph::{JobContext, StageError};
 use ori_views::{ViewError, ViewParams, ViewPlan};
 
-use super::{Artifact, PipelineStage, Slot, in_asset, ingest::MESH};
+use super::{Artifact, PipelineStage, Slot, ingest::MESH};
 
 /// The planned (and, after `place`, placed) directions.
 pub const PLAN: Slot<ViewPlan> = Slot::new("views");
@@ -34,7 +34,7 @@ impl PipelineStage for Views {
 
     fn run(&self, params: ViewParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
-        let plan = ori_views::plan_views(&mesh, &params).map_err(|e| in_asset(job, e))?;
+        let plan = ori_views::plan_views(&mesh, &params).map_err(StageError::asset)?;
         PLAN.write(job, &plan);
         Ok(())
     }
