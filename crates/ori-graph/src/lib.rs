@@ -5,8 +5,9 @@
 //! entry maps a key to the output hashes. A downstream job's key is made from upstream
 //! *output* hashes, so an upstream job that re-runs and produces the same bytes stops the
 //! cascade (early cutoff). [`run`] executes a [`Graph`] on a rayon pool; results never depend
-//! on the thread count because every job is a pure function of its key. A [`RemoteCache`]
-//! (optional) is consulted after the local cache and filled by builders in read-write mode.
+//! on the thread count because every job is a pure function of its key. Results are kept in
+//! tiers ([`ResultStore`]): the local [`Cache`] and an optional [`RemoteCache`] (filled by
+//! builders in read-write mode), which a run reads and writes through [`Tiered`].
 
 mod cache;
 mod hash;
@@ -16,6 +17,8 @@ mod remote;
 mod run;
 mod sources;
 mod stage;
+mod store;
+mod tiered;
 
 pub use cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, write_atomic};
 pub use hash::{ContentHash, canonical_json, job_key};
@@ -25,3 +28,5 @@ pub use remote::{Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, R
 pub use run::{Build, MAX_THREADS, RunOptions, StageSummary, run};
 pub use sources::{DEFAULT_MAX_FILE_BYTES, RACY_WINDOW, SourceHasher, SourceRules};
 pub use stage::{JobContext, Stage, StageError};
+pub use store::{Lookup, ResultStore};
+pub use tiered::Tiered;

@@ -24,6 +24,7 @@ use serde::{Deserialize, Serialize};
 use crate::cache::{ActionEntry, BlobRef, Cache, decode_checked_json, encode_checked_json};
 use crate::hash::ContentHash;
 use crate::outcome::Observer;
+use crate::store::{Lookup, ResultStore};
 
 /// The two namespaces of the protocol.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -207,26 +208,119 @@ impl RemoteCache {
         ));
     }
 
-    /// The action entry for `key`, verified by its checksum; `None` when the server does not
-    /// have it, is unavailable, or sent damaged bytes (warned).
-    pub(crate) fn fetch_action(
+    fn note_damaged(&self, blob: &BlobRef) {
+        self.damaged
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(blob.hash);
+    }
+
+    fn uploads_allowed(&self) -> bool {
+        self.mode == RemoteMode::ReadWrite
+            && !self.is_offline()
+            && !self.uploads_off.load(Ordering::Relaxed)
+    }
+
+    /// Note a failed upload once: an unavailable server is not asked again, any other
+    /// failure stops uploads for the rest of this build.
+    fn upload_failed(&self, e: &RemoteError, observer: &dyn Observer) -> String {
+        match e {
+            RemoteError::Unavailable(_) => self.went_offline(e, observer),
+            _ => {
+                if !self.uploads_off.swap(true, Ordering::Relaxed) {
+                    observer.note(&format!(
+                        "warning: remote cache {}: upload failed ({e}); not uploading for the rest of this build",
+                        self.describe()
+                    ));
+                }
+            }
+        }
+        format!("remote cache {}: upload failed ({e})", self.describe())
+    }
+
+    /// Upload a job that ran: its blobs (from the local cache), then its action entry, so
+    /// the server never lists an entry whose blobs it lacks. Best effort: a failure is one
+    /// warning for the build, and nothing more is uploaded. Read-only mode uploads nothing.
+    pub(crate) fn upload(
         &self,
+        local: &Cache,
         key: &ContentHash,
+        entry: &ActionEntry,
         observer: &dyn Observer,
-    ) -> Option<ActionEntry> {
+    ) {
+        if !self.uploads_allowed() {
+            return;
+        }
+        for blob in entry.outputs.values() {
+            let bytes = match local.read_blob(blob) {
+                Ok(bytes) => bytes,
+                Err(e) => {
+                    let e = RemoteError::Rejected(format!("cannot read the local copy: {e}"));
+                    self.upload_failed(&e, observer);
+                    return;
+                }
+            };
+            if self.keep_blob(blob, &bytes, observer).is_err() {
+                return;
+            }
+        }
+        let _ = self.keep_action(key, entry, observer);
+    }
+
+    fn try_put_blob(&self, blob: &BlobRef, bytes: &[u8]) -> Result<(), RemoteError> {
+        let damaged = self
+            .damaged
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .remove(&blob.hash);
+        if !damaged
+            && blob.size >= HEAD_BEFORE_PUT
+            && self.store.contains(Namespace::Cas, &blob.hash)?
+        {
+            return Ok(());
+        }
+        self.store.put(Namespace::Cas, &blob.hash, bytes)?;
+        self.counters.blobs_up.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .bytes_up
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        Ok(())
+    }
+
+    fn try_put_action(&self, key: &ContentHash, entry: &ActionEntry) -> Result<(), RemoteError> {
+        let bytes = encode_checked_json(entry)
+            .map_err(|e| RemoteError::Rejected(format!("cannot encode the entry: {e}")))?;
+        self.store.put(Namespace::Ac, key, &bytes)?;
+        self.counters.entries_up.fetch_add(1, Ordering::Relaxed);
+        self.counters
+            .bytes_up
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
+        Ok(())
+    }
+}
+
+/// The remote tier: downloads verified (damage is a miss and a warning), nothing asked once
+/// the server has failed, uploads only in read-write mode.
+impl ResultStore for RemoteCache {
+    fn describe(&self) -> String {
+        self.store.describe()
+    }
+
+    fn action(&self, key: &ContentHash, observer: &dyn Observer) -> Lookup<ActionEntry> {
         if self.is_offline() {
-            return None;
+            return Lookup::Missing;
         }
         let bytes = match self.store.get(Namespace::Ac, key, MAX_ENTRY_BYTES) {
             Ok(Some(bytes)) => bytes,
-            Ok(None) => return None,
+            Ok(None) => return Lookup::Missing,
             Err(RemoteError::Invalid(why)) => {
-                self.damaged_download(format!("action entry {}: {why}", key.short()), observer);
-                return None;
+                let what = format!("action entry {}: {why}", key.short());
+                self.damaged_download(what.clone(), observer);
+                return Lookup::Damaged(what);
             }
             Err(e) => {
                 self.went_offline(&e, observer);
-                return None;
+                return Lookup::Missing;
             }
         };
         self.counters.entries_down.fetch_add(1, Ordering::Relaxed);
@@ -234,39 +328,31 @@ impl RemoteCache {
             .bytes_down
             .fetch_add(bytes.len() as u64, Ordering::Relaxed);
         match decode_checked_json(&bytes) {
-            Ok(entry) => Some(entry),
+            Ok(entry) => Lookup::Found(entry),
             Err(why) => {
-                self.damaged_download(
-                    format!("action entry {} is damaged ({why})", key.short()),
-                    observer,
-                );
-                None
+                let what = format!("action entry {} is damaged ({why})", key.short());
+                self.damaged_download(what.clone(), observer);
+                Lookup::Damaged(what)
             }
         }
     }
 
-    /// Download a blob into the local cache, verified against its hash. Whether it is now
-    /// there.
-    pub(crate) fn fetch_blob(
-        &self,
-        cache: &Cache,
-        blob: &BlobRef,
-        observer: &dyn Observer,
-    ) -> bool {
+    fn blob(&self, blob: &BlobRef, observer: &dyn Observer) -> Lookup<Vec<u8>> {
         if self.is_offline() {
-            return false;
+            return Lookup::Missing;
         }
         let bytes = match self.store.get(Namespace::Cas, &blob.hash, blob.size) {
             Ok(Some(bytes)) => bytes,
-            Ok(None) => return false,
+            Ok(None) => return Lookup::Missing,
             Err(RemoteError::Invalid(why)) => {
                 self.note_damaged(blob);
-                self.damaged_download(format!("blob {}: {why}", blob.hash.short()), observer);
-                return false;
+                let what = format!("blob {}: {why}", blob.hash.short());
+                self.damaged_download(what.clone(), observer);
+                return Lookup::Damaged(what);
             }
             Err(e) => {
                 self.went_offline(&e, observer);
-                return false;
+                return Lookup::Missing;
             }
         };
         self.counters.blobs_down.fetch_add(1, Ordering::Relaxed);
@@ -276,101 +362,41 @@ impl RemoteCache {
         let actual = ContentHash::of(&bytes);
         if actual != blob.hash {
             self.note_damaged(blob);
-            self.damaged_download(
-                format!(
-                    "blob {} is damaged (its {} bytes hash to {})",
-                    blob.hash.short(),
-                    bytes.len(),
-                    actual.short()
-                ),
-                observer,
+            let what = format!(
+                "blob {} is damaged (its {} bytes hash to {})",
+                blob.hash.short(),
+                bytes.len(),
+                actual.short()
             );
-            return false;
+            self.damaged_download(what.clone(), observer);
+            return Lookup::Damaged(what);
         }
-        match cache.store_verified_blob(&blob.hash, &bytes) {
-            Ok(()) => true,
-            Err(e) => {
-                observer.note(&format!(
-                    "warning: cannot write to the cache {}: {e}",
-                    cache.root().display()
-                ));
-                false
-            }
-        }
+        Lookup::Found(bytes)
     }
 
-    fn note_damaged(&self, blob: &BlobRef) {
-        self.damaged
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .insert(blob.hash);
-    }
-
-    /// Upload a job that ran: its blobs (from the local cache), then its action entry, so
-    /// the server never lists an entry whose blobs it lacks. Best effort: a failure is one
-    /// warning for the build, and nothing more is uploaded. Read-only mode uploads nothing.
-    pub(crate) fn upload(
+    fn keep_blob(
         &self,
-        cache: &Cache,
+        blob: &BlobRef,
+        bytes: &[u8],
+        observer: &dyn Observer,
+    ) -> Result<(), String> {
+        if !self.uploads_allowed() {
+            return Ok(());
+        }
+        self.try_put_blob(blob, bytes)
+            .map_err(|e| self.upload_failed(&e, observer))
+    }
+
+    fn keep_action(
+        &self,
         key: &ContentHash,
         entry: &ActionEntry,
         observer: &dyn Observer,
-    ) {
-        if self.mode != RemoteMode::ReadWrite
-            || self.is_offline()
-            || self.uploads_off.load(Ordering::Relaxed)
-        {
-            return;
+    ) -> Result<(), String> {
+        if !self.uploads_allowed() {
+            return Ok(());
         }
-        if let Err(e) = self.try_upload(cache, key, entry) {
-            match e {
-                RemoteError::Unavailable(_) => self.went_offline(&e, observer),
-                _ => {
-                    if !self.uploads_off.swap(true, Ordering::Relaxed) {
-                        observer.note(&format!(
-                            "warning: remote cache {}: upload failed ({e}); not uploading for the rest of this build",
-                            self.describe()
-                        ));
-                    }
-                }
-            }
-        }
-    }
-
-    fn try_upload(
-        &self,
-        cache: &Cache,
-        key: &ContentHash,
-        entry: &ActionEntry,
-    ) -> Result<(), RemoteError> {
-        for blob in entry.outputs.values() {
-            let damaged = self
-                .damaged
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .remove(&blob.hash);
-            if !damaged
-                && blob.size >= HEAD_BEFORE_PUT
-                && self.store.contains(Namespace::Cas, &blob.hash)?
-            {
-                continue;
-            }
-            let bytes = cache
-                .read_blob(blob)
-                .map_err(|e| RemoteError::Rejected(format!("cannot read the local copy: {e}")))?;
-            self.store.put(Namespace::Cas, &blob.hash, &bytes)?;
-            self.counters.blobs_up.fetch_add(1, Ordering::Relaxed);
-            self.counters
-                .bytes_up
-                .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-        }
-        let bytes = encode_checked_json(entry)
-            .map_err(|e| RemoteError::Rejected(format!("cannot encode the entry: {e}")))?;
-        self.store.put(Namespace::Ac, key, &bytes)?;
-        self.counters.entries_up.fetch_add(1, Ordering::Relaxed);
-        self.counters
-            .bytes_up
-            .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-        Ok(())
+        self.try_put_action(key, entry)
+            .map_err(|e| self.upload_failed(&e, observer))
     }
 }

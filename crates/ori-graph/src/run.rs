@@ -8,13 +8,15 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::cache::{ActionEntry, BlobRef, Cache, JobRecord, ReadError};
+use crate::cache::{ActionEntry, Cache, JobRecord, ReadError};
 use crate::hash::{ContentHash, canonical_json, job_key};
 use crate::job::{Graph, Input, JobId, JobSpec};
 use crate::outcome::{JobResult, Observer, Outcome, RunReason};
 use crate::remote::RemoteCache;
 use crate::sources::{SourceHasher, SourceRules};
 use crate::stage::{JobContext, JobInputs, StageError};
+use crate::store::Lookup;
+use crate::tiered::Tiered;
 
 /// How to run a graph.
 #[derive(Clone, Debug, Default)]
@@ -82,12 +84,11 @@ pub fn run<'g>(
         .collect();
     let exec = Exec {
         graph,
-        cache: cache.clone(),
+        store: Tiered::new(cache.clone(), options.remote.clone(), !options.dry_run),
         sources: SourceHasher::new(cache.stat_memo_path(), options.sources.clone()),
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
         cached_only: options.cached_only,
-        remote: options.remote.clone(),
         observer,
     };
     observer.run_started(graph);
@@ -182,12 +183,11 @@ impl<'g> Build<'g> {
 
 struct Exec<'g> {
     graph: &'g Graph,
-    cache: Cache,
+    store: Tiered,
     sources: SourceHasher,
     results: Vec<OnceLock<JobResult>>,
     dry_run: bool,
     cached_only: bool,
-    remote: Option<Arc<RemoteCache>>,
     observer: &'g dyn Observer,
 }
 
@@ -299,8 +299,8 @@ impl<'g> Exec<'g> {
             Err(outcome) => return JobResult::without_outputs(outcome),
         };
         let key = job_key(job.stage.name(), job.stage.version(), &job.params, &inputs);
-        let reason = match self.cache.read_action(&key) {
-            Ok(entry) => match self.validate(job, &entry) {
+        let reason = match self.store.local_action(&key, self.observer) {
+            Lookup::Found(entry) => match self.validate(job, &entry) {
                 Ok(()) => {
                     return JobResult {
                         outcome: Outcome::Reused,
@@ -311,7 +311,7 @@ impl<'g> Exec<'g> {
                 }
                 Err(reason) => reason,
             },
-            Err(ReadError::Missing) => match self.remote_hit(job, &key, &inputs) {
+            Lookup::Missing => match self.remote_hit(job, &key, &inputs) {
                 Some(entry) => {
                     return JobResult {
                         outcome: Outcome::Reused,
@@ -322,7 +322,7 @@ impl<'g> Exec<'g> {
                 }
                 None => self.explain_miss(job, &key, &inputs),
             },
-            Err(e) => RunReason::CorruptEntry(e.to_string()),
+            Lookup::Damaged(why) => RunReason::CorruptEntry(why),
         };
         if self.dry_run {
             return JobResult::without_outputs(Outcome::WouldRun(reason));
@@ -347,19 +347,13 @@ impl<'g> Exec<'g> {
             params: job.params.clone(),
             inputs: inputs.iter().cloned().collect(),
         };
-        let stored = self
-            .cache
-            .write_action(&key, &entry)
-            .and_then(|()| self.cache.write_record(&identity(job), &record));
-        if let Err(e) = stored {
-            let message = format!(
-                "cannot write to the cache {}: {e}",
-                self.cache.root().display()
-            );
+        let local = self.store.local();
+        let stored = local
+            .write_record(&identity(job), &record)
+            .map_err(|e| format!("cannot write to the cache {}: {e}", local.root().display()))
+            .and_then(|()| self.store.keep(&key, &entry, self.observer));
+        if let Err(message) = stored {
             return JobResult::without_outputs(Outcome::Failed(message));
-        }
-        if let Some(remote) = &self.remote {
-            remote.upload(&self.cache, &key, &entry, self.observer);
         }
         JobResult {
             outcome: Outcome::Ran(reason),
@@ -391,24 +385,14 @@ impl<'g> Exec<'g> {
             }
         }
         for (name, blob) in &entry.outputs {
-            if !self.cache.blob_present(blob) && !self.fetch_blob(blob) {
-                self.cache.discard_blob(&blob.hash);
+            if !self.store.ensure_blob(blob, self.observer) {
                 return Err(RunReason::CorruptEntry(format!(
                     "output `{name}` ({}) is missing or truncated",
-                    self.cache.blob_path(&blob.hash).display()
+                    self.store.local().blob_path(&blob.hash).display()
                 )));
             }
         }
         Ok(())
-    }
-
-    /// Download a blob missing from the local cache from the remote one, verified.
-    fn fetch_blob(&self, blob: &BlobRef) -> bool {
-        !self.dry_run
-            && self
-                .remote
-                .as_ref()
-                .is_some_and(|r| r.fetch_blob(&self.cache, blob, self.observer))
     }
 
     /// The remote cache's result for a job missing from the local cache: its entry, checked
@@ -420,12 +404,10 @@ impl<'g> Exec<'g> {
         key: &ContentHash,
         inputs: &[(String, ContentHash)],
     ) -> Option<ActionEntry> {
-        let remote = self.remote.as_ref()?;
-        let entry = remote.fetch_action(key, self.observer)?;
+        let (entry, remote) = self.store.remote_action(key, self.observer)?;
         if entry.stage != job.stage.name() {
             self.observer.note(&format!(
-                "warning: remote cache {}: action entry {} is for stage `{}`, not `{}`; not used",
-                remote.describe(),
+                "warning: remote cache {remote}: action entry {} is for stage `{}`, not `{}`; not used",
                 key.short(),
                 entry.stage,
                 job.stage.name()
@@ -447,15 +429,14 @@ impl<'g> Exec<'g> {
             params: job.params.clone(),
             inputs: inputs.iter().cloned().collect(),
         };
-        let stored = self
-            .cache
-            .write_action(key, &entry)
-            .and_then(|()| self.cache.write_record(&identity(job), &record));
-        if let Err(e) = stored {
-            self.observer.note(&format!(
-                "warning: cannot write to the cache {}: {e}",
-                self.cache.root().display()
-            ));
+        let local = self.store.local();
+        let stored = self.store.adopt(key, &entry, self.observer).and_then(|()| {
+            local
+                .write_record(&identity(job), &record)
+                .map_err(|e| format!("cannot write to the cache {}: {e}", local.root().display()))
+        });
+        if let Err(message) = stored {
+            self.observer.note(&format!("warning: {message}"));
         }
         Some(entry)
     }
@@ -467,7 +448,7 @@ impl<'g> Exec<'g> {
         key: &ContentHash,
         inputs: &[(String, ContentHash)],
     ) -> RunReason {
-        let Some(last) = self.cache.read_record(&identity(job)) else {
+        let Some(last) = self.store.local().read_record(&identity(job)) else {
             return RunReason::NewJob;
         };
         if last.key == *key {
@@ -528,10 +509,9 @@ impl<'g> Exec<'g> {
         }
         let mut outputs = BTreeMap::new();
         for (name, bytes) in left.outputs {
-            let blob = self
-                .cache
-                .put_blob(&bytes)
-                .map_err(|e| StageError::file(self.cache.root(), format!("cannot write: {e}")))?;
+            let blob = self.store.put_output(&bytes).map_err(|e| {
+                StageError::file(self.store.local().root(), format!("cannot write: {e}"))
+            })?;
             outputs.insert(name, blob);
         }
         Ok(ActionEntry {
@@ -551,17 +531,12 @@ impl<'g> Exec<'g> {
                 job.stage.name()
             ))
         })?;
-        match self.cache.read_blob(blob) {
+        match self.store.blob(blob, self.observer) {
             Ok(bytes) => return Ok(bytes),
             Err(ReadError::Io { path, error }) => {
                 return Err(StageError::file(path, format!("cannot read: {error}")));
             }
             Err(damage) => {
-                if self.fetch_blob(blob)
-                    && let Ok(bytes) = self.cache.read_blob(blob)
-                {
-                    return Ok(bytes);
-                }
                 if self.cached_only || self.dry_run {
                     return Err(StageError::input(
                         name,
@@ -593,7 +568,8 @@ impl<'g> Exec<'g> {
                 ),
             ));
         }
-        self.cache
+        self.store
+            .local()
             .read_blob(blob)
             .map_err(|e| StageError::input(name, e))
     }
