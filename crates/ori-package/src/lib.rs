@@ -91,6 +91,48 @@ pub struct Manifest {
     pub params: serde_json::Value,
 }
 
+/// The runtime rule's search parameters, as the pipeline records them in `params.select`
+/// (`linear_steps` 1 to 1024, `binary_steps` 0 to 32, `wall_threshold` finite and >= 0): the
+/// one part of `params` a reader looks at. Each is `None` when absent or out of range.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RecordedMarch {
+    /// Linear-search steps of the ray-heightfield search.
+    pub linear_steps: Option<u32>,
+    /// Binary-search steps after it.
+    pub binary_steps: Option<u32>,
+    /// Vertical-wall threshold, a fraction of an impostor's depth range.
+    pub wall_threshold: Option<f64>,
+}
+
+impl RecordedMarch {
+    /// What a `params` object records.
+    pub fn of_params(params: &serde_json::Value) -> RecordedMarch {
+        let select = params.get("select");
+        let int = |key: &str, range: std::ops::RangeInclusive<u64>| {
+            select
+                .and_then(|s| s.get(key))
+                .and_then(serde_json::Value::as_u64)
+                .filter(|v| range.contains(v))
+                .map(|v| v as u32)
+        };
+        RecordedMarch {
+            linear_steps: int("linear_steps", 1..=1024),
+            binary_steps: int("binary_steps", 0..=32),
+            wall_threshold: select
+                .and_then(|s| s.get("wall_threshold"))
+                .and_then(serde_json::Value::as_f64)
+                .filter(|v| v.is_finite() && *v >= 0.0),
+        }
+    }
+}
+
+impl Manifest {
+    /// The search parameters the package was measured with.
+    pub fn recorded_march(&self) -> RecordedMarch {
+        RecordedMarch::of_params(&self.params)
+    }
+}
+
 /// The model a package was built from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -199,3 +199,26 @@ fn huge_manifest_length_is_an_error_without_allocation() {
         })
     ));
 }
+
+#[test]
+fn the_recorded_march_is_read_within_its_ranges() {
+    use ori_package::RecordedMarch;
+    let of = |json: &str| RecordedMarch::of_params(&serde_json::from_str(json).unwrap());
+    assert_eq!(
+        of(r#"{"select": {"linear_steps": 16, "binary_steps": 7, "wall_threshold": 0.25}}"#),
+        RecordedMarch {
+            linear_steps: Some(16),
+            binary_steps: Some(7),
+            wall_threshold: Some(0.25)
+        }
+    );
+    // Absent, of the wrong kind or out of range: not recorded (the reader's default).
+    for json in [
+        "{}",
+        r#"{"select": 3}"#,
+        r#"{"select": {"linear_steps": 0, "binary_steps": 33, "wall_threshold": -1}}"#,
+        r#"{"select": {"linear_steps": 4294967312, "binary_steps": "7", "wall_threshold": null}}"#,
+    ] {
+        assert_eq!(of(json), RecordedMarch::default(), "{json}");
+    }
+}

@@ -119,27 +119,16 @@ impl Default for MarchParams {
 }
 
 impl MarchParams {
-    /// The parameters a package was measured with (`params.select.linear_steps`,
-    /// `binary_steps`, `wall_threshold`), each defaulted when absent or out of range.
+    /// The parameters a package was measured with, each defaulted when it records none.
     pub fn from_manifest(manifest: &ori_package::Manifest) -> MarchParams {
         let d = MarchParams::default();
-        let select = manifest.params.get("select");
-        let int = |key: &str, max: u64, default: u32| {
-            select
-                .and_then(|s| s.get(key))
-                .and_then(|v| v.as_u64())
-                .filter(|&v| v <= max)
-                .map_or(default, |v| v as u32)
-        };
-        let threshold = select
-            .and_then(|s| s.get("wall_threshold"))
-            .and_then(|v| v.as_f64())
-            .filter(|v| v.is_finite() && *v >= 0.0)
-            .map_or(d.wall_threshold, |v| v as f32);
+        let recorded = manifest.recorded_march();
         MarchParams {
-            linear_steps: int("linear_steps", 1024, d.linear_steps).max(1),
-            binary_steps: int("binary_steps", 32, d.binary_steps),
-            wall_threshold: threshold,
+            linear_steps: recorded.linear_steps.unwrap_or(d.linear_steps),
+            binary_steps: recorded.binary_steps.unwrap_or(d.binary_steps),
+            wall_threshold: recorded
+                .wall_threshold
+                .map_or(d.wall_threshold, |w| w as f32),
         }
     }
 }

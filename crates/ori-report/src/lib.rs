@@ -395,15 +395,14 @@ fn pictures_of(
     let mesh = access
         .load(&source)
         .map_err(|e| format!("no reference pictures: {e}"))?;
-    let select = &m.params["select"];
+    let recorded = m.recorded_march();
+    let d = EvalParams::default();
     let params = EvalParams {
         s0: PICTURE_SIZE,
-        linear_steps: select["linear_steps"].as_u64().unwrap_or(16) as u32,
-        binary_steps: select["binary_steps"].as_u64().unwrap_or(7) as u32,
-        wall_threshold: select["wall_threshold"]
-            .as_f64()
-            .unwrap_or(EvalParams::default().wall_threshold),
-        ..EvalParams::default()
+        linear_steps: recorded.linear_steps.unwrap_or(d.linear_steps),
+        binary_steps: recorded.binary_steps.unwrap_or(d.binary_steps),
+        wall_threshold: recorded.wall_threshold.unwrap_or(d.wall_threshold),
+        ..d
     };
     let evaluator = Evaluator::new(&mesh, &set, &params).map_err(|e| e.to_string())?;
     let subset_for = |w: [f64; 3]| -> Vec<usize> {

@@ -122,6 +122,7 @@ fn manifest(
     selection: &ori_select::Selection,
     plt: &ori_plt::Plt,
 ) -> Manifest {
+    let march = ori_package::RecordedMarch::of_params(&params.pipeline);
     let placeholder = |format| TextureRef {
         format,
         offset: 0,
@@ -189,15 +190,20 @@ fn manifest(
                     Some(device) => format!("wgpu renderer on {device}"),
                     None => "cpu evaluator".to_string(),
                 },
-                params.pipeline["select"]["linear_steps"],
-                params.pipeline["select"]["binary_steps"],
-                params.pipeline["select"]["wall_threshold"],
+                shown(march.linear_steps),
+                shown(march.binary_steps),
+                shown(march.wall_threshold),
                 plt.s0,
                 plt.s0
             ),
         },
         params: params.pipeline.clone(),
     }
+}
+
+/// A recorded number as the manifest's JSON writes it (`0.25`, `1.0`), or `null`.
+fn shown(value: Option<impl Into<serde_json::Value>>) -> serde_json::Value {
+    value.map_or(serde_json::Value::Null, Into::into)
 }
 
 /// What a measuring package records: the selection parameters it is measured with.
