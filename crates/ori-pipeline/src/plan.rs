@@ -17,7 +17,8 @@ use crate::stages::place::{Place, PlaceJob};
 use crate::stages::plt::{NoParams, PLT, PltStage};
 use crate::stages::select::{SELECTION, Select, SelectJob};
 use crate::stages::views::{PLAN, Views};
-use crate::stages::{PipelineStage, Registry, params_json};
+use crate::stages::{Job, Makes, PipelineStage, Registry, params_json};
+use ori_mesh::Mesh;
 
 /// The jobs of one asset. For a hierarchy, the chain fields are the root node's and
 /// `package` is the hierarchy job.
@@ -77,20 +78,26 @@ pub struct Planner {
 
 /// The jobs from a mesh to a package (`compress` and `package` are `None` when measuring).
 struct Chain {
-    views: JobId,
-    place: JobId,
-    bake: JobId,
-    select: JobId,
-    plt: JobId,
-    compress: Option<JobId>,
-    package: Option<JobId>,
+    views: Job<Views>,
+    place: Job<Place>,
+    bake: Job<Bake>,
+    select: Job<Select>,
+    plt: Job<PltStage>,
+    compress: Option<Job<Compress>>,
+    package: Option<Job<Package>>,
 }
 
 impl Chain {
     fn jobs(&self) -> Vec<JobId> {
-        let mut jobs = vec![self.views, self.place, self.bake, self.select, self.plt];
-        jobs.extend(self.compress);
-        jobs.extend(self.package);
+        let mut jobs = vec![
+            self.views.id,
+            self.place.id,
+            self.bake.id,
+            self.select.id,
+            self.plt.id,
+        ];
+        jobs.extend(self.compress.map(|j| j.id));
+        jobs.extend(self.package.map(|j| j.id));
         jobs
     }
 }
@@ -115,20 +122,22 @@ impl Planner {
         label: &str,
         params: &S::Params,
         inputs: Vec<(&str, Input)>,
-    ) -> JobId {
-        self.graph.add(JobSpec {
-            asset: label.to_string(),
-            stage: self.stages.get::<S>(),
-            params: params_json::<S>(params),
-            inputs: inputs
-                .into_iter()
-                .map(|(name, input)| (name.to_string(), input))
-                .collect(),
-        })
+    ) -> Job<S> {
+        Job::new(
+            self.graph.add(JobSpec {
+                asset: label.to_string(),
+                stage: self.stages.get::<S>(),
+                params: params_json::<S>(params),
+                inputs: inputs
+                    .into_iter()
+                    .map(|(name, input)| (name.to_string(), input))
+                    .collect(),
+            }),
+        )
     }
 
     /// The ingest job of an asset.
-    pub fn ingest(&mut self, planned: &PlannedAsset) -> JobId {
+    pub fn ingest(&mut self, planned: &PlannedAsset) -> Job<Ingest> {
         let asset = &planned.asset;
         self.add::<Ingest>(
             &asset.name,
@@ -138,20 +147,30 @@ impl Planner {
     }
 
     /// The clip job of a hierarchy node: the asset's mesh clipped to `clip`.
-    pub fn clip(&mut self, label: &str, ingest: JobId, clip: &ori_hierarchy::Cell) -> JobId {
+    pub fn clip(
+        &mut self,
+        label: &str,
+        ingest: Job<Ingest>,
+        clip: &ori_hierarchy::Cell,
+    ) -> Job<Clip> {
         let params = ClipParams {
             min: clip.min,
             max: clip.max,
         };
-        self.add::<Clip>(label, &params, vec![(MESH.name, MESH.of(ingest))])
+        self.add::<Clip>(label, &params, vec![MESH.from(ingest)])
     }
 
     /// Add the chain of one ORI of `planned` (labelled `label` in progress and messages) over
     /// the mesh output of `mesh`: the asset's own mesh (ingest), or a hierarchy node's part
     /// of it (clip). (Through a node's cuts one sees back faces, culled unless double-sided.)
-    fn chain(&mut self, label: &str, planned: &PlannedAsset, mesh: JobId) -> Chain {
+    fn chain<M: Makes<Mesh>>(
+        &mut self,
+        label: &str,
+        planned: &PlannedAsset,
+        mesh: Job<M>,
+    ) -> Chain {
         let (asset, params) = (&planned.asset, &planned.params);
-        let mesh_in = || (MESH.name, MESH.of(mesh));
+        let mesh_in = || MESH.from(mesh);
         let views = self.add::<Views>(label, &params.views, vec![mesh_in()]);
         let place_job = PlaceJob {
             place: params.place.clone(),
@@ -159,26 +178,14 @@ impl Planner {
             select: params.select.clone(),
             item_buffer_size: params.views.item_buffer_size,
         };
-        let place = self.add::<Place>(
-            label,
-            &place_job,
-            vec![mesh_in(), (PLAN.name, PLAN.of(views))],
-        );
-        let bake = self.add::<Bake>(
-            label,
-            &params.bake,
-            vec![mesh_in(), (PLAN.name, PLAN.of(place))],
-        );
+        let place = self.add::<Place>(label, &place_job, vec![mesh_in(), PLAN.from(views)]);
+        let bake = self.add::<Bake>(label, &params.bake, vec![mesh_in(), PLAN.from(place)]);
         let select = self.add::<Select>(
             label,
             &SelectJob::new(&params.select, params.select_device.as_deref()),
-            vec![mesh_in(), (MAPS.name, MAPS.of(bake))],
+            vec![mesh_in(), MAPS.from(bake)],
         );
-        let plt = self.add::<PltStage>(
-            label,
-            &NoParams {},
-            vec![(SELECTION.name, SELECTION.of(select))],
-        );
+        let plt = self.add::<PltStage>(label, &NoParams {}, vec![SELECTION.from(select)]);
         if planned.measure_only {
             return Chain {
                 views,
@@ -190,8 +197,7 @@ impl Planner {
                 package: None,
             };
         }
-        let compress =
-            self.add::<Compress>(label, &params.compress, vec![(MAPS.name, MAPS.of(bake))]);
+        let compress = self.add::<Compress>(label, &params.compress, vec![MAPS.from(bake)]);
         let package_params = PackageParams {
             name: asset.name.clone(),
             tool: tool(),
@@ -205,10 +211,10 @@ impl Planner {
             vec![
                 // Hashed, never read: the manifest records the source's content hash.
                 (SOURCE, Input::Source(asset.path.clone())),
-                (MAPS.name, MAPS.of(bake)),
-                (SELECTION.name, SELECTION.of(select)),
-                (PLT.name, PLT.of(plt)),
-                (TEXTURES.name, TEXTURES.of(compress)),
+                MAPS.from(bake),
+                SELECTION.from(select),
+                PLT.from(plt),
+                TEXTURES.from(compress),
             ],
         );
         Chain {
@@ -228,8 +234,8 @@ impl Planner {
         let ingest = self.ingest(planned);
         let root = self.chain(&asset.name, planned, ingest);
         let mut nodes = Vec::new();
-        let mut measured = vec![(ingest, root.plt)];
-        let mut package = root.package;
+        let mut measured = vec![(ingest.id, root.plt.id)];
+        let mut package = root.package.map(|j| j.id);
         if let Some(tree) = &planned.tree {
             let mut node_packages = vec![root.package];
             for (i, node) in tree.nodes.iter().enumerate().skip(1) {
@@ -237,9 +243,9 @@ impl Planner {
                 let cell = node.clip.as_ref().unwrap_or(&node.cell);
                 let clip = self.clip(&label, ingest, cell);
                 let chain = self.chain(&label, planned, clip);
-                nodes.push(clip);
+                nodes.push(clip.id);
                 nodes.extend(chain.jobs());
-                measured.push((clip, chain.plt));
+                measured.push((clip.id, chain.plt.id));
                 node_packages.push(chain.package);
             }
             if !planned.measure_only {
@@ -250,19 +256,19 @@ impl Planner {
                     let p = p.expect("a full chain has a package job");
                     inputs.push((name.as_str(), PACKAGE.of(p)));
                 }
-                package = Some(self.add::<Hierarchy>(&asset.name, &params, inputs));
+                package = Some(self.add::<Hierarchy>(&asset.name, &params, inputs).id);
             }
         }
         AssetJobs {
             asset: asset.clone(),
-            ingest,
-            views: root.views,
-            place: root.place,
-            bake: root.bake,
-            select: root.select,
-            plt: root.plt,
-            compress: root.compress.unwrap_or(root.plt),
-            package: package.unwrap_or(root.plt),
+            ingest: ingest.id,
+            views: root.views.id,
+            place: root.place.id,
+            bake: root.bake.id,
+            select: root.select.id,
+            plt: root.plt.id,
+            compress: root.compress.map_or(root.plt.id, |j| j.id),
+            package: package.unwrap_or(root.plt.id),
             nodes,
             measured,
         }

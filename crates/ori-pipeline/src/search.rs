@@ -207,7 +207,7 @@ pub fn choose_trees(
             for (&(parent, cell, clip), &job) in children.iter().zip(jobs) {
                 // Empty (or unreadable: the final run would fail it the same way) is dropped.
                 if build
-                    .read_output(job, MESH.name)
+                    .read_output(job.id, MESH.name)
                     .is_ok_and(|b| !b.is_empty())
                 {
                     let index = tree.nodes.len();

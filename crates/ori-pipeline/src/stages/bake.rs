@@ -37,3 +37,5 @@ impl PipelineStage for Bake {
         Ok(())
     }
 }
+
+impl super::Makes<ReliefSet> for Bake {}

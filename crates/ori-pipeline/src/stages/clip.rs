@@ -29,3 +29,5 @@ impl PipelineStage for Clip {
         Ok(())
     }
 }
+
+impl super::Makes<ori_mesh::Mesh> for Clip {}

@@ -163,3 +163,5 @@ impl PipelineStage for Compress {
         Ok(())
     }
 }
+
+impl super::Makes<Textures> for Compress {}

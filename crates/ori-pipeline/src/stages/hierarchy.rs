@@ -83,3 +83,5 @@ impl PipelineStage for Hierarchy {
         Ok(())
     }
 }
+
+impl super::Makes<super::package::PackageBytes> for Hierarchy {}

@@ -112,3 +112,6 @@ impl PipelineStage for Ingest {
         Ok(())
     }
 }
+
+impl super::Makes<Mesh> for Ingest {}
+impl super::Makes<MeshSummary> for Ingest {}

@@ -96,14 +96,46 @@ impl<T> Slot<T> {
         }
     }
 
-    /// This output of `job`, as another job's input.
-    pub fn of(self, job: JobId) -> Input {
+    /// This output of `job`, as another job's input: only from a stage that makes a `T`.
+    pub fn of<S: Makes<T>>(self, job: Job<S>) -> Input {
         Input::Output {
-            job,
+            job: job.id,
             name: self.name.to_string(),
         }
     }
+
+    /// This output of `job` as the input of the same name (the usual wiring).
+    pub fn from<S: Makes<T>>(self, job: Job<S>) -> (&'static str, Input) {
+        (self.name, self.of(job))
+    }
 }
+
+/// A stage whose jobs make an output of type `T`.
+pub trait Makes<T>: PipelineStage {}
+
+/// A planned job of stage `S`. Inputs are wired from it only through the artifacts `S`
+/// makes ([`Slot::of`]), so a plan that feeds a stage the wrong artifact does not compile.
+pub struct Job<S> {
+    pub id: JobId,
+    stage: PhantomData<fn() -> S>,
+}
+
+impl<S> Job<S> {
+    pub(crate) fn new(id: JobId) -> Job<S> {
+        Job {
+            id,
+            stage: PhantomData,
+        }
+    }
+}
+
+impl<S> Clone for Job<S> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<S> Copy for Job<S> {}
 
 impl<T: Artifact> Slot<T> {
     /// Read and decode this input of a running job.

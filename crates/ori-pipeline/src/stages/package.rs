@@ -254,3 +254,5 @@ pub(crate) fn measuring_package(
     let bytes = ori_package::write(&manifest, &textures).map_err(|e| e.to_string())?;
     ori_package::read(&bytes).map_err(|e| e.to_string())
 }
+
+impl super::Makes<PackageBytes> for Package {}

@@ -42,3 +42,5 @@ impl PipelineStage for Place {
         Ok(())
     }
 }
+
+impl super::Makes<ori_views::ViewPlan> for Place {}

@@ -38,3 +38,5 @@ impl PipelineStage for PltStage {
         Ok(())
     }
 }
+
+impl super::Makes<Plt> for PltStage {}

@@ -76,3 +76,5 @@ impl PipelineStage for Select {
         Ok(())
     }
 }
+
+impl super::Makes<Selection> for Select {}

@@ -39,3 +39,5 @@ impl PipelineStage for Views {
         Ok(())
     }
 }
+
+impl super::Makes<ViewPlan> for Views {}
