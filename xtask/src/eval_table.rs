@@ -9,7 +9,6 @@ use std::time::Instant;
 use ori_eval::{EvalParams, Evaluator};
 use ori_pipeline::ori::OriParams;
 use ori_select::{Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
-use rayon::prelude::*;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -52,6 +51,9 @@ pub struct Args {
     /// Vertical-wall threshold, fraction of an impostor's depth range.
     #[arg(long)]
     wall_threshold: Option<f64>,
+    /// Seed of the 2,000 random held-out directions (after the 1280 regular ones).
+    #[arg(long, default_value_t = ori_views::DEFAULT_HELD_OUT_SEED)]
+    held_out_seed: u64,
     /// Write the error picture of each column's worst view into DIR (PNG).
     #[arg(long, value_name = "DIR")]
     pictures: Option<PathBuf>,
@@ -159,13 +161,22 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         params.rule,
         shares.join(", ")
     );
-    let between = between_views(&evaluator, &directions, &per_view, best)?;
+    let held_out = held_out_views(&evaluator, &directions, &per_view, best, args.held_out_seed)?;
+    let between = held_out.first(1280);
     println!(
         "{} between the table's directions (1280 views, each drawn with its nearest entry's \
          subset): coverage error max {:.3}%, avg {:.3}%",
         params.rule,
-        100.0 * f64::from(between.0) / f64::from(params.s0 * params.s0),
-        100.0 * between.1 / f64::from(params.s0 * params.s0),
+        between.max_percent(),
+        between.avg_percent(),
+    );
+    // Parsed by scripts: keep the shape.
+    println!(
+        "held-out ({} directions): coverage error max {:.3}%, avg {:.3}%, impostors per view {:.2}",
+        held_out.views.len(),
+        held_out.max_percent(),
+        held_out.avg_percent(),
+        held_out.avg_impostors(),
     );
     println!(
         "placement: {} moves, worst view {} -> {} pixels with all {} closest",
@@ -258,39 +269,29 @@ fn print_table(summaries: &[RuleSummary], per_view: &[Vec<ori_select::RuleView>]
     );
 }
 
-/// The runtime's view of the table: each of the 1280 directions of the icosahedron
-/// subdivided three times (none of them a table direction) draws the subset of its nearest
-/// table entry. Returns the worst and the average coverage error, in pixels.
-fn between_views(
+/// The runtime's view of the table at the held-out directions (the 1280 of the icosahedron
+/// subdivided three times, none a table direction, then the seeded random ones): each draws
+/// the subset of its nearest table entry under rule column `rule`.
+fn held_out_views(
     evaluator: &Evaluator<'_>,
     table: &[[f64; 3]],
     per_view: &[Vec<ori_select::RuleView>],
     rule: usize,
-) -> Result<(u32, f64), String> {
+    seed: u64,
+) -> Result<ori_select::HeldOut, String> {
     let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let views = ori_views::icosahedron_directions(3);
-    let missed: Vec<u32> = views
-        .par_iter()
-        .map(|&w| {
-            let nearest = (0..table.len())
-                .max_by(|&a, &b| {
-                    dot(table[a], w)
-                        .total_cmp(&dot(table[b], w))
-                        .then(b.cmp(&a))
-                })
-                .unwrap_or(0);
-            let view = evaluator.view(w).map_err(|e| e.to_string())?;
-            let reference = evaluator.mesh_coverage(&view);
-            let mut drawn = ori_eval::Mask::new(reference.size());
-            for &i in &per_view[nearest][rule].impostors {
-                drawn.union_with(&evaluator.impostor_mask(&view, i, Some(&reference)));
-            }
-            Ok(reference.count_minus(&drawn))
-        })
-        .collect::<Result<_, String>>()?;
-    let worst = missed.iter().copied().max().unwrap_or(0);
-    let average = missed.iter().map(|&m| f64::from(m)).sum::<f64>() / missed.len() as f64;
-    Ok((worst, average))
+    let subset = |w: [f64; 3]| {
+        let nearest = (0..table.len())
+            .max_by(|&a, &b| {
+                dot(table[a], w)
+                    .total_cmp(&dot(table[b], w))
+                    .then(b.cmp(&a))
+            })
+            .unwrap_or(0);
+        per_view[nearest][rule].impostors.clone()
+    };
+    ori_select::held_out(evaluator, &ori_views::held_out_directions(seed), &subset)
+        .map_err(|e| e.to_string())
 }
 
 /// A `[views] strategy` name.

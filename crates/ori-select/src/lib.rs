@@ -58,7 +58,7 @@ use rayon::prelude::*;
 
 pub use choose::{Choice, ViewMasks, choose};
 pub use ori_artifact::DecodeError;
-pub use report::{RuleSummary, RuleView, evaluate_rules, summarize};
+pub use report::{HeldOut, RuleSummary, RuleView, evaluate_rules, held_out, summarize};
 pub use rule::{MAX_BEST, MAX_CLOSEST, Rule, SelectParams};
 
 /// Why selection failed.

@@ -120,3 +120,73 @@ pub fn summarize(rules: &[Rule], views: &[Vec<RuleView>]) -> Vec<RuleSummary> {
         })
         .collect()
 }
+
+/// Coverage error of the runtime rule at directions no table entry was chosen at.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldOut {
+    /// Per direction, in order: pixels missed (of s0 x s0) and impostors drawn.
+    pub views: Vec<(u32, usize)>,
+    pub s0: u32,
+}
+
+impl HeldOut {
+    /// The figures of the first `count` directions (e.g. the 1280 regular ones).
+    pub fn first(&self, count: usize) -> HeldOut {
+        HeldOut {
+            views: self.views[..count.min(self.views.len())].to_vec(),
+            s0: self.s0,
+        }
+    }
+
+    fn percent(&self, pixels: f64) -> f64 {
+        100.0 * pixels / f64::from(self.s0 * self.s0)
+    }
+
+    /// The worst view's coverage error, percent of s0 x s0.
+    pub fn max_percent(&self) -> f64 {
+        self.percent(f64::from(self.worst_missed()))
+    }
+
+    /// The worst view's missed pixels.
+    pub fn worst_missed(&self) -> u32 {
+        self.views.iter().map(|v| v.0).max().unwrap_or(0)
+    }
+
+    /// The mean coverage error, percent of s0 x s0.
+    pub fn avg_percent(&self) -> f64 {
+        let total: f64 = self.views.iter().map(|v| f64::from(v.0)).sum();
+        self.percent(total / self.views.len().max(1) as f64)
+    }
+
+    /// The mean number of impostors drawn per view.
+    pub fn avg_impostors(&self) -> f64 {
+        let total: usize = self.views.iter().map(|v| v.1).sum();
+        total as f64 / self.views.len().max(1) as f64
+    }
+}
+
+/// The runtime rule at `directions`: each view draws the impostors `subset(w)` names (the
+/// table entry nearest to `w`) and is compared with the mesh's coverage.
+pub fn held_out(
+    evaluator: &Evaluator<'_>,
+    directions: &[[f64; 3]],
+    subset: &(dyn Fn([f64; 3]) -> Vec<usize> + Sync),
+) -> Result<HeldOut, SelectError> {
+    let views = directions
+        .par_iter()
+        .map(|&w| {
+            let view = evaluator.view(w)?;
+            let reference = evaluator.mesh_coverage(&view);
+            let impostors = subset(w);
+            let mut drawn = ori_eval::Mask::new(reference.size());
+            for &i in &impostors {
+                drawn.union_with(&evaluator.impostor_mask(&view, i, Some(&reference)));
+            }
+            Ok((reference.count_minus(&drawn), impostors.len()))
+        })
+        .collect::<Result<_, SelectError>>()?;
+    Ok(HeldOut {
+        views,
+        s0: evaluator.params().s0,
+    })
+}

@@ -95,3 +95,44 @@ fn params_come_from_a_select_section() {
     };
     assert!(too_far.validate().is_err());
 }
+
+#[test]
+fn the_held_out_measure_at_the_table_directions_is_the_table() {
+    let (mesh, set) = prepared("stanford/bunny/bunny_npm_lowres.obj");
+    let params = SelectParams {
+        s0: 128,
+        ..SelectParams::default()
+    };
+    let sel = select(&mesh, &set, &params).expect("select");
+    let evaluator =
+        ori_eval::Evaluator::new(&mesh, &set, &params.eval_params()).expect("evaluator");
+    let subset = |w: [f64; 3]| {
+        sel.lookup(w)
+            .impostors
+            .iter()
+            .map(|&i| usize::from(i))
+            .collect()
+    };
+    // Drawn at the table's own directions, the runtime rule misses what the table says.
+    let table = ori_select::held_out(&evaluator, &ori_views::evaluation_directions(), &subset)
+        .expect("held out");
+    let expected: Vec<(u32, usize)> = sel
+        .entries
+        .iter()
+        .map(|e| (e.missed, e.impostors.len()))
+        .collect();
+    assert_eq!(table.views, expected);
+    assert_eq!(
+        table.worst_missed(),
+        sel.missed().into_iter().max().unwrap()
+    );
+    // Between them, every view draws its nearest entry's subset.
+    let held = ori_select::held_out(
+        &evaluator,
+        &ori_views::held_out_directions(ori_views::DEFAULT_HELD_OUT_SEED),
+        &subset,
+    )
+    .expect("held out");
+    assert_eq!(held.views.len(), 3280);
+    assert!(held.avg_impostors() > 1.0 && held.avg_impostors() <= 6.0);
+}

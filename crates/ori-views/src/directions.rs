@@ -101,6 +101,37 @@ pub fn axis_directions() -> [[f64; 3]; 6] {
     ]
 }
 
+/// How many seeded random directions [`held_out_directions`] adds to the 1280 regular ones.
+pub const HELD_OUT_RANDOM: usize = 2000;
+
+/// The seed of the held-out directions unless one is asked for.
+pub const DEFAULT_HELD_OUT_SEED: u64 = 1;
+
+/// Directions that no stage chooses anything at, for measuring quality where the runtime
+/// draws: the 1280 of `icosahedron_directions(3)` (none is a table direction), then
+/// [`HELD_OUT_RANDOM`] directions uniform on the sphere drawn from `seed` (SplitMix64, then
+/// `z` uniform in `[-1, 1)` and the azimuth uniform, with `ori_math::sin_cos` and `sqrt`, so
+/// the set is bit-identical on every machine).
+pub fn held_out_directions(seed: u64) -> Vec<[f64; 3]> {
+    let mut state = seed;
+    let mut next = || {
+        // SplitMix64 (Steele, Lea, Flood 2014); the top 53 bits as a fraction in [0, 1).
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut directions = icosahedron_directions(3);
+    for _ in 0..HELD_OUT_RANDOM {
+        let z = 1.0 - 2.0 * next();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let (sin, cos) = ori_math::sin_cos(std::f64::consts::TAU * next());
+        directions.push([r * cos, r * sin, z]);
+    }
+    directions
+}
+
 /// The 320 evaluation and selection directions of `GUIDE.md`: the icosahedron subdivided
 /// twice, `icosahedron_directions(2)`.
 pub fn evaluation_directions() -> Vec<[f64; 3]> {

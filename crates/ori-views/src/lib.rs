@@ -28,7 +28,10 @@ mod plan;
 pub use coverage::{
     SamplingCoverage, sampling_coverage, sampling_coverage_with_visible, visible_surface,
 };
-pub use directions::{axis_directions, evaluation_directions, icosahedron_directions};
+pub use directions::{
+    DEFAULT_HELD_OUT_SEED, HELD_OUT_RANDOM, axis_directions, evaluation_directions,
+    held_out_directions, icosahedron_directions,
+};
 pub use entropy::viewpoint_entropy;
 pub use params::{Strategy, ViewParams};
 pub use plan::{ViewPlan, plan_views};

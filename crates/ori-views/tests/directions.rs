@@ -106,3 +106,50 @@ fn spacing_halves_with_each_level() {
         assert!(w[1] < 0.6 * w[0] && w[1] > 0.4 * w[0], "{radii:?}");
     }
 }
+
+#[test]
+fn held_out_directions_are_fixed_unit_and_away_from_the_table() {
+    use ori_views::{HELD_OUT_RANDOM, held_out_directions};
+    let held = held_out_directions(ori_views::DEFAULT_HELD_OUT_SEED);
+    assert_eq!(held.len(), 1280 + HELD_OUT_RANDOM);
+    assert_eq!(held[..1280], ori_views::icosahedron_directions(3)[..]);
+    for d in &held {
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        assert!((len - 1.0).abs() < 1e-12, "{d:?}");
+    }
+    // No held-out direction is a table direction.
+    for t in ori_views::evaluation_directions() {
+        for d in &held {
+            assert!(d != &t, "{d:?}");
+        }
+    }
+    // Uniform on the sphere: the mean is near the centre, each hemisphere holds about half.
+    let random = &held[1280..];
+    for axis in 0..3 {
+        let mean: f64 = random.iter().map(|d| d[axis]).sum::<f64>() / random.len() as f64;
+        assert!(mean.abs() < 0.04, "axis {axis}: mean {mean}");
+        let up = random.iter().filter(|d| d[axis] > 0.0).count();
+        assert!(
+            (900..1100).contains(&up),
+            "axis {axis}: {up} of {}",
+            random.len()
+        );
+    }
+    // The same bits on every machine and run; another seed gives other directions.
+    let bits = |dirs: &[[f64; 3]]| {
+        let mut h = blake3::Hasher::new();
+        for d in dirs {
+            for c in d {
+                h.update(&c.to_bits().to_le_bytes());
+            }
+        }
+        h.finalize().to_hex().to_string()
+    };
+    assert_eq!(bits(&held), bits(&held_out_directions(1)));
+    assert_eq!(bits(&held[1280..]), HELD_OUT_SEED_1_BITS);
+    assert_ne!(held_out_directions(2)[1280..], held[1280..]);
+}
+
+/// blake3 of the random held-out directions of seed 1 (each coordinate's bits, little-endian).
+const HELD_OUT_SEED_1_BITS: &str =
+    "26fe33d22608b803e9e999320bcb329c9aff66637e76481aa40a5bac6a264bfa";
