@@ -21,7 +21,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use serde::{Deserialize, Serialize};
 
-use crate::cache::{ActionEntry, BlobRef, Cache, decode_checked_json, encode_checked_json};
+use crate::cache::{ActionEntry, BlobRef, decode_checked_json, encode_checked_json};
 use crate::hash::ContentHash;
 use crate::outcome::Observer;
 use crate::store::{Lookup, ResultStore};
@@ -215,7 +215,8 @@ impl RemoteCache {
             .insert(blob.hash);
     }
 
-    fn uploads_allowed(&self) -> bool {
+    /// Whether this build still uploads (read-write, and no upload or request has failed).
+    pub(crate) fn uploads_allowed(&self) -> bool {
         self.mode == RemoteMode::ReadWrite
             && !self.is_offline()
             && !self.uploads_off.load(Ordering::Relaxed)
@@ -223,7 +224,7 @@ impl RemoteCache {
 
     /// Note a failed upload once: an unavailable server is not asked again, any other
     /// failure stops uploads for the rest of this build.
-    fn upload_failed(&self, e: &RemoteError, observer: &dyn Observer) -> String {
+    pub(crate) fn upload_failed(&self, e: &RemoteError, observer: &dyn Observer) -> String {
         match e {
             RemoteError::Unavailable(_) => self.went_offline(e, observer),
             _ => {
@@ -238,33 +239,16 @@ impl RemoteCache {
         format!("remote cache {}: upload failed ({e})", self.describe())
     }
 
-    /// Upload a job that ran: its blobs (from the local cache), then its action entry, so
-    /// the server never lists an entry whose blobs it lacks. Best effort: a failure is one
-    /// warning for the build, and nothing more is uploaded. Read-only mode uploads nothing.
-    pub(crate) fn upload(
+    /// Run an upload while uploads are allowed (else do nothing); a failure is noted once.
+    fn upload_with(
         &self,
-        local: &Cache,
-        key: &ContentHash,
-        entry: &ActionEntry,
         observer: &dyn Observer,
-    ) {
+        put: impl FnOnce() -> Result<(), RemoteError>,
+    ) -> Result<(), String> {
         if !self.uploads_allowed() {
-            return;
+            return Ok(());
         }
-        for blob in entry.outputs.values() {
-            let bytes = match local.read_blob(blob) {
-                Ok(bytes) => bytes,
-                Err(e) => {
-                    let e = RemoteError::Rejected(format!("cannot read the local copy: {e}"));
-                    self.upload_failed(&e, observer);
-                    return;
-                }
-            };
-            if self.keep_blob(blob, &bytes, observer).is_err() {
-                return;
-            }
-        }
-        let _ = self.keep_action(key, entry, observer);
+        put().map_err(|e| self.upload_failed(&e, observer))
     }
 
     fn try_put_blob(&self, blob: &BlobRef, bytes: &[u8]) -> Result<(), RemoteError> {
@@ -380,11 +364,7 @@ impl ResultStore for RemoteCache {
         bytes: &[u8],
         observer: &dyn Observer,
     ) -> Result<(), String> {
-        if !self.uploads_allowed() {
-            return Ok(());
-        }
-        self.try_put_blob(blob, bytes)
-            .map_err(|e| self.upload_failed(&e, observer))
+        self.upload_with(observer, || self.try_put_blob(blob, bytes))
     }
 
     fn keep_action(
@@ -393,10 +373,6 @@ impl ResultStore for RemoteCache {
         entry: &ActionEntry,
         observer: &dyn Observer,
     ) -> Result<(), String> {
-        if !self.uploads_allowed() {
-            return Ok(());
-        }
-        self.try_put_action(key, entry)
-            .map_err(|e| self.upload_failed(&e, observer))
+        self.upload_with(observer, || self.try_put_action(key, entry))
     }
 }

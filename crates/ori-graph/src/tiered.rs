@@ -9,7 +9,7 @@ use std::sync::Arc;
 use crate::cache::{ActionEntry, BlobRef, Cache, ReadError};
 use crate::hash::ContentHash;
 use crate::outcome::Observer;
-use crate::remote::RemoteCache;
+use crate::remote::{RemoteCache, RemoteError};
 use crate::store::{Lookup, ResultStore};
 
 /// The local cache in front of an optional remote one: what a run reads and writes through.
@@ -113,7 +113,9 @@ impl Tiered {
     }
 
     /// Keep a job that ran: its entry in the local tier (its blobs are there already), then
-    /// its blobs and entry in the remote one, best effort.
+    /// its blobs (read from the local tier) and its entry in the remote one, so the server
+    /// never lists an entry whose blobs it lacks. Uploads are best effort: a failure is one
+    /// warning for the build and stops them; nothing is read when nothing is uploaded.
     pub fn keep(
         &self,
         key: &ContentHash,
@@ -121,9 +123,23 @@ impl Tiered {
         observer: &dyn Observer,
     ) -> Result<(), String> {
         self.local.keep_action(key, entry, observer)?;
-        if let Some(remote) = &self.remote {
-            remote.upload(&self.local, key, entry, observer);
+        let Some(remote) = self.remote.as_ref().filter(|r| r.uploads_allowed()) else {
+            return Ok(());
+        };
+        for blob in entry.outputs.values() {
+            let bytes = match self.local.read_blob(blob) {
+                Ok(bytes) => bytes,
+                Err(e) => {
+                    let e = RemoteError::Rejected(format!("cannot read the local copy: {e}"));
+                    remote.upload_failed(&e, observer);
+                    return Ok(());
+                }
+            };
+            if remote.keep_blob(blob, &bytes, observer).is_err() {
+                return Ok(());
+            }
         }
+        let _ = remote.keep_action(key, entry, observer);
         Ok(())
     }
 }

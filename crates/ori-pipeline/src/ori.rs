@@ -74,14 +74,11 @@ pub struct StepTimes {
     pub place: Duration,
     pub bake: Duration,
     pub select: Duration,
-    pub plt: Duration,
 }
 
 /// Steps 1-3: the placed plan and its relief maps.
 #[derive(Clone, Debug)]
 pub struct Maps {
-    /// The plan as planned, before placement.
-    pub planned: ViewPlan,
     pub placement: Placement,
     pub set: ReliefSet,
     pub times: StepTimes,
@@ -107,7 +104,6 @@ pub fn build_maps(mesh: &Mesh, params: &OriParams) -> Result<Maps, OriError> {
     let set = ori_bake::bake(mesh, &placement.plan.directions, &params.bake)?;
     times.bake = start.elapsed();
     Ok(Maps {
-        planned,
         placement,
         set,
         times,
@@ -128,9 +124,7 @@ pub fn build_ori(mesh: &Mesh, params: &OriParams) -> Result<Ori, OriError> {
     let start = Instant::now();
     let selection = ori_select::select(mesh, &maps.set, &params.select)?;
     maps.times.select = start.elapsed();
-    let start = Instant::now();
     let plt = plt(&selection);
-    maps.times.plt = start.elapsed();
     Ok(Ori {
         maps,
         selection,
