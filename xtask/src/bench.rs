@@ -26,8 +26,9 @@ pub enum Bench {
         #[arg(long, default_value_t = 5)]
         runs: usize,
     },
-    /// Time selection (coverage masks, then the subset search) + PLT at the defaults (best:6,
-    /// s0 = 256, 320 directions) on real models of growing size, with the default thread pool.
+    /// Time selection (coverage masks, then the subset search) + PLT (the held-out measure) at
+    /// the defaults (best:6, s0 = 256) on real models of growing size, with the default thread
+    /// pool.
     Select {
         /// Timed runs per model (the median is reported).
         #[arg(long, default_value_t = 3)]
@@ -301,7 +302,6 @@ fn select(runs: usize) -> Result<(), String> {
         "{:<36} {:>7} {:>8} {:>8} {:>8} {:>8} {:>6}",
         "model", "faces", "masks s", "select s", "plt s", "total s", "PLT"
     );
-    let directions = ori_views::evaluation_directions();
     for rel in GROWING_MODELS {
         let mesh = load(rel)?;
         let set = ori::build_maps(&mesh, &params)
@@ -313,16 +313,23 @@ fn select(runs: usize) -> Result<(), String> {
             let t = Instant::now();
             let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
                 .map_err(|e| e.to_string())?;
-            let masks =
-                ori_select::all_view_masks(&evaluator, &directions, select.rule.m() as usize)
-                    .map_err(|e| e.to_string())?;
+            let plan = ori_select::MaskPlan::new(&evaluator, select.rule);
+            let masks = ori_select::all_view_masks(&evaluator, &plan).map_err(|e| e.to_string())?;
             tm.push(t.elapsed());
             let t = Instant::now();
             let selection = ori_select::select_from_masks(&masks, select, set.maps.len())
                 .map_err(|e| e.to_string())?;
             ts.push(t.elapsed());
             let t = Instant::now();
-            plt = Some(ori::plt(&selection));
+            let held_out = ori::held_out(
+                &mesh,
+                &set,
+                &selection,
+                select,
+                ori_views::DEFAULT_HELD_OUT_SEED,
+            )
+            .map_err(|e| e.to_string())?;
+            plt = Some(ori::plt(&held_out));
             tp.push(t.elapsed());
         }
         let (m, s, p) = (median(tm), median(ts), median(tp));

@@ -73,7 +73,9 @@ fn selection_with_319_entries() {
 
 #[test]
 fn wrong_plt_gc() {
-    both_reject(|m| m.plt.gc += 1, "plt.gc");
+    // The PLT must follow from GC, and GC fit the image.
+    both_reject(|m| m.plt.gc += 1, "plt.pixels");
+    both_reject(|m| m.plt.gc = m.plt.s0 * m.plt.s0 + 1, "plt.gc");
 }
 
 #[test]

@@ -161,6 +161,7 @@ pub fn build_assets(
         (auto, trees)
     };
     let resolutions: Vec<u32> = params.iter().map(|p| p.bake.resolution).collect();
+    let seeds: Vec<u64> = params.iter().map(|p| p.plt.held_out_seed).collect();
     let planned: Vec<PlannedAsset> = assets
         .iter()
         .zip(params)
@@ -182,7 +183,7 @@ pub fn build_assets(
         report,
         packages,
         unreadable,
-    } = collect(&graph, &build, &jobs, &resolutions, &auto, &reading);
+    } = collect(&graph, &build, &jobs, &resolutions, &seeds, &auto, &reading);
     let failed_jobs = graph
         .jobs()
         .filter(|(id, _)| matches!(build.result(*id).outcome, Outcome::Failed(_)))

@@ -304,7 +304,11 @@ impl StageParams {
         json["bake"]["resolution_auto"] = serde_json::Value::Bool(self.auto_resolution);
         let object = json.as_object_mut().expect("an object");
         if !self.auto_resolution {
-            object.remove("plt");
+            // Only the seed of the held-out directions shapes a fixed resolution's package.
+            object.insert(
+                "plt".into(),
+                serde_json::json!({ "held_out_seed": self.plt.held_out_seed }),
+            );
         }
         if !self.hierarchy.enabled {
             object.remove("hierarchy");

@@ -2,10 +2,10 @@
 //! selection as `ori_select::select`, but each impostor's coverage mask is drawn by the wgpu
 //! runtime renderer with the shaders of `shaders/` instead of traced by the CPU evaluator.
 //!
-//! Framing, the facing test and the reference mesh coverage stay on the CPU evaluator, and the
-//! masks go through `ori_select::select_from_masks`, so the two backends differ only where
-//! the device's arithmetic differs from the CPU's (on the software driver they agree pixel
-//! for pixel; see `ori-render`'s parity test). The results are therefore device-dependent:
+//! Framing, the views to measure (`ori_select::MaskPlan`) and the reference mesh coverage stay
+//! on the CPU evaluator, and the masks go through `ori_select::select_from_masks`, so the two
+//! backends differ only where the device's arithmetic differs from the CPU's (on the software
+//! driver they agree pixel for pixel; see `ori-render`'s parity test). The results are therefore device-dependent:
 //! the select job's parameters name the backend and the adapter, so GPU results get their own
 //! cache keys and never stand in for CPU results.
 
@@ -15,7 +15,7 @@ use ori_eval::{Evaluator, Mask};
 use ori_mesh::Mesh;
 use ori_relief::ReliefSet;
 use ori_render::{Camera, Draw, Renderer};
-use ori_select::{SelectParams, Selection, ViewMasks};
+use ori_select::{MaskPlan, SelectParams, Selection, ViewMasks};
 
 /// The process's renderer, made on first use (a device per job would cost more than the
 /// work); the error is kept so every job reports it.
@@ -45,14 +45,14 @@ pub fn select(
         binary_steps: params.binary_steps,
         wall_threshold: params.wall_threshold as f32,
     });
-    let m = params.rule.m() as usize;
+    let plan = MaskPlan::new(&evaluator, params.rule);
     let mut masks = Vec::new();
-    for w in ori_views::evaluation_directions() {
+    for (&w, impostors) in plan.directions.iter().zip(&plan.impostors) {
         let view = evaluator.view(w).map_err(|e| e.to_string())?;
         let reference = evaluator.mesh_coverage(&view);
         let camera = Camera::from_view(&view);
         let mut candidates = Vec::new();
-        for i in evaluator.facing(w).into_iter().take(m) {
+        for &i in impostors {
             let index = [i as u16];
             let image = renderer
                 .render(

@@ -4,7 +4,8 @@
 //! 2. place: move them where the evaluator shows they are needed (`ori_place`);
 //! 3. bake: render a relief map per direction (`ori_bake`);
 //! 4. select: the per-view selection table (`ori_select`);
-//! 5. plt: GC(s0) and the projected length threshold (`ori_plt`).
+//! 5. plt: the runtime rule at the held-out directions, and from its worst view GC(s0) and
+//!    the projected length threshold (`ori_plt`).
 //!
 //! The build graph runs each step as its own cached job (`stages`), calling the step functions
 //! here; `eval-table` and the benches call [`build_maps`] or [`build_ori`] whole. Either way
@@ -17,7 +18,7 @@ use ori_mesh::Mesh;
 use ori_place::{Measure, PlaceError, PlaceParams, Placement};
 use ori_plt::Plt;
 use ori_relief::ReliefSet;
-use ori_select::{SelectParams, Selection};
+use ori_select::{HeldOut, SelectParams, Selection};
 use ori_views::{ViewParams, ViewPlan};
 
 /// Every parameter that shapes an ORI's maps, table and PLT.
@@ -62,9 +63,26 @@ pub fn place(
     ori_place::place(mesh, plan, &measure, place)
 }
 
-/// Step 5: the PLT of a selection table.
-pub fn plt(selection: &Selection) -> Plt {
-    ori_plt::estimate(selection.s0, &selection.missed())
+/// Step 5a: the runtime rule (each view draws its nearest entry's subset) measured at the
+/// held-out directions of `seed`, with the evaluator of the selection.
+pub fn held_out(
+    mesh: &Mesh,
+    set: &ReliefSet,
+    selection: &Selection,
+    select: &SelectParams,
+    seed: u64,
+) -> Result<HeldOut, ori_select::SelectError> {
+    let evaluator = ori_eval::Evaluator::new(mesh, set, &select.eval_params())?;
+    let subset = |w: [f64; 3]| {
+        let entry = selection.lookup(w);
+        entry.impostors.iter().map(|&i| usize::from(i)).collect()
+    };
+    ori_select::held_out(&evaluator, &ori_views::held_out_directions(seed), &subset)
+}
+
+/// Step 5b: the PLT from the held-out measure's worst view (GC(s0) there).
+pub fn plt(held_out: &HeldOut) -> Plt {
+    ori_plt::estimate(held_out.s0, &held_out.missed())
 }
 
 /// How long each step took.
@@ -110,11 +128,13 @@ pub fn build_maps(mesh: &Mesh, params: &OriParams) -> Result<Maps, OriError> {
     })
 }
 
-/// A whole ORI: its maps, selection table and PLT.
+/// A whole ORI: its maps, selection table, held-out measure and PLT.
 #[derive(Clone, Debug)]
 pub struct Ori {
     pub maps: Maps,
     pub selection: Selection,
+    /// At the held-out directions of the default seed.
+    pub held_out: HeldOut,
     pub plt: Plt,
 }
 
@@ -124,10 +144,18 @@ pub fn build_ori(mesh: &Mesh, params: &OriParams) -> Result<Ori, OriError> {
     let start = Instant::now();
     let selection = ori_select::select(mesh, &maps.set, &params.select)?;
     maps.times.select = start.elapsed();
-    let plt = plt(&selection);
+    let held_out = held_out(
+        mesh,
+        &maps.set,
+        &selection,
+        &params.select,
+        ori_views::DEFAULT_HELD_OUT_SEED,
+    )?;
+    let plt = plt(&held_out);
     Ok(Ori {
         maps,
         selection,
+        held_out,
         plt,
     })
 }

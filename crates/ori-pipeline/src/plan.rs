@@ -14,7 +14,7 @@ use crate::stages::hierarchy::{Hierarchy, TreeParams, node_input};
 use crate::stages::ingest::{Ingest, IngestJob, MESH, SOURCE};
 use crate::stages::package::{PACKAGE, Package, PackageParams, tool};
 use crate::stages::place::{Place, PlaceJob};
-use crate::stages::plt::{NoParams, PLT, PltStage};
+use crate::stages::plt::{PLT, PltJob, PltStage};
 use crate::stages::select::{SELECTION, Select, SelectJob};
 use crate::stages::views::{PLAN, Views};
 use crate::stages::{Job, Makes, PipelineStage, Registry, params_json};
@@ -185,7 +185,15 @@ impl Planner {
             &SelectJob::new(&params.select, params.select_device.as_deref()),
             vec![mesh_in(), MAPS.from(bake)],
         );
-        let plt = self.add::<PltStage>(label, &NoParams {}, vec![SELECTION.from(select)]);
+        let plt_job = PltJob {
+            select: params.select.clone(),
+            held_out_seed: params.plt.held_out_seed,
+        };
+        let plt = self.add::<PltStage>(
+            label,
+            &plt_job,
+            vec![mesh_in(), MAPS.from(bake), SELECTION.from(select)],
+        );
         if planned.measure_only {
             return Chain {
                 views,

@@ -5,8 +5,8 @@ use std::path::Path;
 
 use ori_graph::{Build, Graph, Outcome};
 use ori_release::{
-    AssetReport, AssetStatus, AutoReport, BuildReport, JobReport, JobStatus, MeshSummary,
-    QualityReport,
+    AssetReport, AssetStatus, AutoReport, BuildReport, HeldOutReport, JobReport, JobStatus,
+    MeshSummary, QualityReport,
 };
 
 use crate::plan::AssetJobs;
@@ -15,7 +15,7 @@ use crate::stages::Artifact;
 use crate::stages::bake::MAPS;
 use crate::stages::ingest::{MESH, SUMMARY};
 use crate::stages::package::PACKAGE;
-use crate::stages::plt::PLT;
+use crate::stages::plt::{HELD_OUT, PLT};
 use crate::stages::select::SELECTION;
 
 /// What the final run produced.
@@ -73,11 +73,19 @@ fn asset_status(
 }
 
 /// The selection and PLT outputs of an asset as its quality entry.
-fn quality(build: &Build<'_>, jobs: &AssetJobs) -> Result<QualityReport, String> {
+fn quality(build: &Build<'_>, jobs: &AssetJobs, seed: u64) -> Result<QualityReport, String> {
     let selection = SELECTION.read_from(build, jobs.select)?;
     let plt = PLT.read_from(build, jobs.plt)?;
+    let held_out = HELD_OUT.read_from(build, jobs.plt)?;
     let stats = selection.stats();
     Ok(QualityReport {
+        held_out: HeldOutReport {
+            directions: held_out.views.len(),
+            seed,
+            coverage_error_max_percent: held_out.max_percent(),
+            coverage_error_avg_percent: held_out.avg_percent(),
+            impostors_per_view: held_out.avg_impostors(),
+        },
         coverage_error_min_percent: stats.min_percent,
         coverage_error_max_percent: stats.max_percent,
         coverage_error_avg_percent: stats.avg_percent,
@@ -91,13 +99,14 @@ fn quality(build: &Build<'_>, jobs: &AssetJobs) -> Result<QualityReport, String>
     })
 }
 
-/// Read every asset's results from the final run. `resolutions` and `auto` are per asset,
-/// in the order of `jobs`.
+/// Read every asset's results from the final run. `resolutions`, `seeds` (of the held-out
+/// directions) and `auto` are per asset, in the order of `jobs`.
 pub fn collect<'a>(
     graph: &Graph,
     build: &'a Build<'_>,
     jobs: &[AssetJobs],
     resolutions: &[u32],
+    seeds: &[u64],
     auto: &[Option<AutoReport>],
     reading: &Reading<'_>,
 ) -> Collected<'a> {
@@ -149,7 +158,7 @@ pub fn collect<'a>(
             let package = j.package;
             let blob = build.result(package).outputs.get(PACKAGE.name).cloned();
             let blob = blob.ok_or_else(|| format!("output `{}` is missing", PACKAGE.name));
-            match quality(build, j).and_then(|q| Ok((q, blob?))) {
+            match quality(build, j, seeds[index]).and_then(|q| Ok((q, blob?))) {
                 Ok((q, blob)) => {
                     entry.quality = Some(q);
                     packages.push(BuiltPackage {

@@ -134,10 +134,13 @@ pub fn fits(plt: &Plt, projected_px: f64) -> bool {
     projected_px <= plt.pixels()
 }
 
-/// `[plt]` parameters: the `auto` texture-resolution mode.
+/// `[plt]` parameters: where the PLT is measured, and the `auto` texture-resolution mode.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PltParams {
+    /// Seed of the random half of the held-out directions the PLT is measured at
+    /// (`ori_views::held_out_directions`; default 1).
+    pub held_out_seed: u64,
     /// Target on-screen size in pixels for `auto` resolution: the smallest power-of-two
     /// texture resolution whose PLT reaches it is chosen (see [`auto_resolution`]).
     pub target_px: u32,
@@ -150,6 +153,7 @@ pub struct PltParams {
 impl Default for PltParams {
     fn default() -> Self {
         PltParams {
+            held_out_seed: 1,
             target_px: 256,
             min_resolution: 32,
             max_resolution: 2048,

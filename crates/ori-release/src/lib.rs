@@ -175,7 +175,10 @@ pub struct AutoReport {
 /// The measured quality of an asset's ORI (the rows of the paper's Table 1).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct QualityReport {
-    /// Coverage error over the 320 evaluation directions, percent of s0 x s0.
+    /// The runtime rule at the held-out directions, none of which a stage chose anything at:
+    /// what a player sees. The PLT comes from its worst view.
+    pub held_out: HeldOutReport,
+    /// Coverage error over the 320 evaluation directions of the table, percent of s0 x s0.
     pub coverage_error_min_percent: f64,
     pub coverage_error_max_percent: f64,
     pub coverage_error_avg_percent: f64,
@@ -183,13 +186,26 @@ pub struct QualityReport {
     /// Directions drawing 0, 1, 2, ... impostors.
     pub views_by_impostor_count: Vec<u32>,
     pub s0: u32,
-    /// GC(s0): the largest coverage error, in pixels.
+    /// GC(s0): the largest coverage error at the held-out directions, in pixels.
     pub gc: u32,
     /// s0^2 / GC(s0); when GC is 0 this is the lower bound s0^2 and `plt_is_lower_bound` is set.
     pub plt: f64,
     pub plt_is_lower_bound: bool,
     /// Power of two nearest to 2 x PLT (the paper's advice).
     pub recommended_resolution: u32,
+}
+
+/// The coverage error at the held-out directions (`ori_views::held_out_directions`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeldOutReport {
+    pub directions: usize,
+    /// Seed of their random half.
+    pub seed: u64,
+    /// Percent of s0 x s0.
+    pub coverage_error_max_percent: f64,
+    pub coverage_error_avg_percent: f64,
+    /// Mean number of impostors drawn.
+    pub impostors_per_view: f64,
 }
 
 #[cfg(test)]

@@ -130,7 +130,14 @@ pub struct AssetSummary {
     pub package: Option<String>,
     pub package_bytes: Option<u64>,
     pub texture_bytes: Option<u64>,
+    /// From the worst held-out view.
     pub plt: Option<f64>,
+    /// The runtime rule at the held-out directions (percent of s0 x s0; impostors drawn).
+    pub held_out_directions: Option<usize>,
+    pub held_out_coverage_error_max_percent: Option<f64>,
+    pub held_out_coverage_error_avg_percent: Option<f64>,
+    pub held_out_impostors_per_view: Option<f64>,
+    /// At the selection table's own directions.
     pub coverage_error_min_percent: Option<f64>,
     pub coverage_error_max_percent: Option<f64>,
     pub coverage_error_avg_percent: Option<f64>,
@@ -246,6 +253,10 @@ fn asset_summary(
         faces: a.mesh.as_ref().map(|m| m.triangles as u64),
         resolution: Some(a.resolution),
         plt: q.map(|q| q.plt),
+        held_out_directions: q.map(|q| q.held_out.directions),
+        held_out_coverage_error_max_percent: q.map(|q| q.held_out.coverage_error_max_percent),
+        held_out_coverage_error_avg_percent: q.map(|q| q.held_out.coverage_error_avg_percent),
+        held_out_impostors_per_view: q.map(|q| q.held_out.impostors_per_view),
         coverage_error_min_percent: q.map(|q| q.coverage_error_min_percent),
         coverage_error_max_percent: q.map(|q| q.coverage_error_max_percent),
         coverage_error_avg_percent: q.map(|q| q.coverage_error_avg_percent),

@@ -147,6 +147,20 @@ impl HeldOut {
         self.percent(f64::from(self.worst_missed()))
     }
 
+    /// Each view's missed pixels, in order.
+    pub fn missed(&self) -> Vec<u32> {
+        self.views.iter().map(|v| v.0).collect()
+    }
+
+    /// The canonical byte layout (see `codec.rs`).
+    pub fn encode(&self) -> Vec<u8> {
+        crate::codec::encode_held_out(self)
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<HeldOut, ori_artifact::DecodeError> {
+        crate::codec::decode_held_out(bytes)
+    }
+
     /// The worst view's missed pixels.
     pub fn worst_missed(&self) -> u32 {
         self.views.iter().map(|v| v.0).max().unwrap_or(0)

@@ -85,8 +85,13 @@ impl From<Rule> for String {
 pub struct SelectParams {
     /// `"best:6"` (default) or `"closest:M"`.
     pub rule: Rule,
-    /// Coverage-error goal of `best:M`, in percent of s0 x s0 (default 0.2).
+    /// Coverage-error goal of `best:M` in an entry's own view, in percent of s0 x s0
+    /// (default 0.2).
     pub goal_percent: f64,
+    /// Coverage-error goal of `best:M` at the corners and edge midpoints of the region an
+    /// entry serves, the farthest directions that draw it (default 0.25; `goal_percent` to
+    /// 100).
+    pub edge_goal_percent: f64,
     /// Evaluation image edge s0 (default 256).
     pub s0: u32,
     /// Linear-search steps of the runtime rule (default 16).
@@ -104,6 +109,7 @@ impl Default for SelectParams {
         SelectParams {
             rule: Rule::Best(6),
             goal_percent: 0.2,
+            edge_goal_percent: 0.25,
             s0: e.s0,
             linear_steps: e.linear_steps,
             binary_steps: e.binary_steps,
@@ -140,6 +146,12 @@ impl SelectParams {
                 self.goal_percent
             )));
         }
+        if !(self.goal_percent..=100.0).contains(&self.edge_goal_percent) {
+            return Err(SelectError::Params(format!(
+                "select.edge_goal_percent = {} must be select.goal_percent ({}) to 100",
+                self.edge_goal_percent, self.goal_percent
+            )));
+        }
         self.eval_params()
             .validate()
             .map_err(|e| SelectError::Params(format!("select: {e}")))
@@ -161,6 +173,11 @@ impl SelectParams {
     /// `floor(goal_percent / 100 * s0^2)` pixels.
     pub fn goal_pixels(&self) -> u32 {
         goal_pixels(self.goal_percent, self.s0)
+    }
+
+    /// The region's goal as a pixel count, likewise.
+    pub fn edge_goal_pixels(&self) -> u32 {
+        goal_pixels(self.edge_goal_percent, self.s0)
     }
 }
 

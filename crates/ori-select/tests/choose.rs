@@ -1,7 +1,7 @@
 //! The subset search on hand-made masks: sizes, goal, tie-breaking, ordering.
 
 use ori_eval::Mask;
-use ori_select::{Choice, Rule, ViewMasks, choose};
+use ori_select::{Choice, Goals, Rule, ViewMasks, choose, choose_region};
 
 /// A 4 x 4 image whose first `n` pixels the mesh covers.
 fn reference(n: usize) -> Mask {
@@ -77,4 +77,64 @@ fn no_facing_impostor_draws_nothing() {
     };
     assert_eq!(choose(&vm, Rule::Best(6), 0), choice(&[], 10));
     assert_eq!(choose(&vm, Rule::Closest(4), 0), choice(&[], 10));
+}
+
+fn both(pixels: u32) -> Goals {
+    Goals {
+        own: pixels,
+        edge: pixels,
+    }
+}
+
+#[test]
+fn a_region_is_met_at_its_worst_view() {
+    // Own view: impostor 7 alone reaches the goal of 2 pixels.
+    let own = masks(&[
+        (7, &[0, 1, 2, 3, 4, 5, 6, 7, 8]),
+        (3, &[0, 1, 2, 3, 4]),
+        (5, &[5, 6, 7, 8, 9]),
+    ]);
+    assert_eq!(choose(&own, Rule::Best(3), 2), choice(&[7], 1));
+    // At the region's edge no single impostor reaches the goal; of the pairs, 3 and 5 miss
+    // pixel 4 there, 7 and 5 miss nothing anywhere.
+    let edge = masks(&[
+        (3, &[0, 1, 2, 3]),
+        (5, &[0, 5, 6, 7, 8, 9]),
+        (7, &[0, 1, 2, 3, 4]),
+    ]);
+    assert_eq!(
+        choose_region(&own, &[&edge], Rule::Best(3), both(2)),
+        choice(&[7, 5], 0)
+    );
+    // A looser goal at the edge lets impostor 7 alone serve the region (5 pixels missed there).
+    let loose = Goals { own: 2, edge: 5 };
+    assert_eq!(
+        choose_region(&own, &[&edge], Rule::Best(3), loose),
+        choice(&[7], 1)
+    );
+    // ... but not when its own view misses more than its goal.
+    let strict_own = Goals { own: 0, edge: 5 };
+    assert_eq!(
+        choose_region(&own, &[&edge], Rule::Best(3), strict_own),
+        choice(&[7, 5], 0)
+    );
+    // A mask the edge view lacks draws nothing there; masks of other impostors are ignored.
+    let partial = masks(&[
+        (9, &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]),
+        (7, &[0, 1, 2, 3, 4, 5, 6, 7, 8]),
+    ]);
+    assert_eq!(
+        choose_region(&own, &[&partial], Rule::Best(3), both(2)),
+        choice(&[7], 1)
+    );
+    // With no region, the region choice is the one-view choice.
+    assert_eq!(
+        choose_region(&own, &[], Rule::Best(2), both(0)),
+        choose(&own, Rule::Best(2), 0)
+    );
+    // closest:M draws all M whatever the region.
+    assert_eq!(
+        choose_region(&own, &[&edge], Rule::Closest(2), both(0)),
+        choice(&[7, 3], 1)
+    );
 }

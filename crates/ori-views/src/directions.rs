@@ -138,6 +138,41 @@ pub fn evaluation_directions() -> Vec<[f64; 3]> {
     icosahedron_directions(2)
 }
 
+/// The directions around each evaluation direction that the runtime serves from its table
+/// entry: the corners and edge midpoints of its spherical triangle (the lookup picks the
+/// nearest entry, so each entry serves about its triangle, and these are its farthest points).
+/// None of them is a held-out direction (those are triangle centroids, or random).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EvaluationRegions {
+    /// Each corner or midpoint once (neighbouring triangles share them), in order of first
+    /// use by the evaluation directions.
+    pub samples: Vec<[f64; 3]>,
+    /// For evaluation direction `i`: its three corners, then its three edge midpoints, as
+    /// indices into `samples`.
+    pub of_direction: Vec<[usize; 6]>,
+}
+
+/// [`EvaluationRegions`] of [`evaluation_directions`] (162 corners and 480 midpoints).
+pub fn evaluation_regions() -> EvaluationRegions {
+    let mut samples = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let mut of_direction = Vec::new();
+    for [a, b, c] in geodesic_triangles(2) {
+        // Shared corners and midpoints are computed from the same endpoints, so equal bits.
+        let points = [a, b, c, midpoint(a, b), midpoint(b, c), midpoint(c, a)];
+        of_direction.push(points.map(|p| {
+            *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                samples.push(p);
+                samples.len() - 1
+            })
+        }));
+    }
+    EvaluationRegions {
+        samples,
+        of_direction,
+    }
+}
+
 /// Sizes of the regularly spaced sets: the axis box, then the icosahedron levels 0 to 4.
 pub(crate) const REGULAR_COUNTS: [usize; 6] = [6, 20, 80, 320, 1280, 5120];
 
@@ -218,6 +253,35 @@ mod tests {
             assert!(dot(cross(sub(b, a), sub(c, a)), a) > 0.0);
             let e = dist2(a, b);
             assert!((dist2(b, c) - e).abs() < 1e-12 && (dist2(c, a) - e).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn regions_are_the_triangles_of_the_evaluation_directions() {
+        let regions = evaluation_regions();
+        let directions = evaluation_directions();
+        // Euler: 162 vertices and 480 edges of the 320 triangles, each sample once.
+        assert_eq!(regions.samples.len(), 162 + 480);
+        assert_eq!(regions.of_direction.len(), directions.len());
+        let triangles = geodesic_triangles(2);
+        let held_out = held_out_directions(DEFAULT_HELD_OUT_SEED);
+        for (i, samples) in regions.of_direction.iter().enumerate() {
+            for &s in samples {
+                let p = regions.samples[s];
+                // On the triangle's boundary, and nearer to its own direction than to any
+                // entry outside the neighbouring triangles.
+                assert!(inside(p, triangles[i]), "direction {i}");
+                let own = dot(p, directions[i]);
+                let beaten = directions
+                    .iter()
+                    .filter(|&&d| dot(p, d) > own + 1e-9)
+                    .count();
+                assert!(
+                    beaten <= 5,
+                    "direction {i}, sample {s}: {beaten} nearer entries"
+                );
+                assert!(!held_out.contains(&p) && !directions.contains(&p));
+            }
         }
     }
 

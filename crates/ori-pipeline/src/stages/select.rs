@@ -59,7 +59,8 @@ impl PipelineStage for Select {
     const NAME: &'static str = "select";
     /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
     /// 3: single-sided materials are culled from behind in the reference.
-    const VERSION: u32 = 3;
+    /// 4: `best:M` subsets are chosen over each entry's region of directions.
+    const VERSION: u32 = 4;
     type Params = SelectJob;
 
     fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
