@@ -48,6 +48,17 @@ impl Mask {
         }
     }
 
+    /// `self = self \ other`.
+    ///
+    /// # Panics
+    /// If the sizes differ.
+    pub fn remove(&mut self, other: &Mask) {
+        assert_eq!(self.size, other.size, "masks of different sizes");
+        for (a, b) in self.words.iter_mut().zip(&other.words) {
+            *a &= !b;
+        }
+    }
+
     /// The number of pixels in `self` and not in `other`: `|self \ other|`.
     ///
     /// # Panics
@@ -119,6 +130,9 @@ mod tests {
         }
         assert_eq!(a.count(), 4);
         assert_eq!(a.count_minus(&b), 3);
+        let mut rest = a.clone();
+        rest.remove(&b);
+        assert_eq!(rest.ones().collect::<Vec<_>>(), [0, 64, 99]);
         assert_eq!(a.ones().collect::<Vec<_>>(), [0, 63, 64, 99]);
         assert_eq!(a.ones_in(1, 99).collect::<Vec<_>>(), [63, 64]);
         assert_eq!(a.ones_in(64, 100).collect::<Vec<_>>(), [64, 99]);

@@ -190,13 +190,14 @@ pub fn held_out(
         .par_iter()
         .map(|&w| {
             let view = evaluator.view(w)?;
-            let reference = evaluator.mesh_coverage(&view);
+            let mut missed = evaluator.mesh_coverage(&view);
             let impostors = subset(w);
-            let mut drawn = ori_eval::Mask::new(reference.size());
+            // Each impostor is traced only where the ones before it left pixels uncovered: a
+            // pixel's coverage does not depend on which others are traced.
             for &i in &impostors {
-                drawn.union_with(&evaluator.impostor_mask(&view, i, Some(&reference)));
+                missed.remove(&evaluator.impostor_mask(&view, i, Some(&missed)));
             }
-            Ok((reference.count_minus(&drawn), impostors.len()))
+            Ok((missed.count(), impostors.len()))
         })
         .collect::<Result<_, SelectError>>()?;
     Ok(HeldOut {
