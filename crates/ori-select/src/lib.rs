@@ -50,9 +50,9 @@
 //! the scan's base, past the culled inside, at parts no impostor near them saw. Placement
 //! moves impostors until those views are within the goal.
 //!
-//! Those subsets did not hold a few degrees away: at the held-out directions the armadillo's
-//! worst view lost 1.672 %. Chosen over each entry's region, the held-out figures are in the
-//! notes of the issue that brought regions in and in `ori-pipeline`'s quality tests.
+//! Subsets chosen at one direction did not hold a few degrees away (the held-out worst views
+//! lost five to sixteen times the table's), which is why `best:M` now chooses over regions;
+//! `ori-pipeline`'s quality tests hold the held-out figures.
 
 mod choose;
 mod codec;
