@@ -202,6 +202,34 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         held_out.avg_percent(),
         held_out.avg_impostors(),
     );
+    // Whether the worst held-out view is the subset's fault or beyond every candidate of its
+    // entry (then only placement or more impostors can help).
+    let held_out_directions = ori_views::held_out_directions(args.held_out_seed);
+    let worst = (0..held_out.views.len())
+        .max_by_key(|&d| (held_out.views[d].0, std::cmp::Reverse(d)))
+        .unwrap_or(0);
+    if let Some(&w) = held_out_directions.get(worst) {
+        let entry = selection.nearest(w);
+        let m = params.rule.m() as usize;
+        let all: Vec<usize> = evaluator
+            .facing(directions[entry])
+            .into_iter()
+            .take(m)
+            .collect();
+        let floor =
+            ori_select::held_out(&evaluator, &[w], &|_| all.clone()).map_err(|e| e.to_string())?;
+        println!(
+            "worst held-out view {worst} ({:.3}, {:.3}, {:.3}), entry {entry}: {} pixels missed \
+             with its {} impostors, {} with all {} candidates of the entry",
+            w[0],
+            w[1],
+            w[2],
+            held_out.views[worst].0,
+            held_out.views[worst].1,
+            floor.worst_missed(),
+            all.len()
+        );
+    }
     println!(
         "placement: {} moves, worst view {} -> {} pixels with all {} closest",
         placed.moves,

@@ -169,6 +169,11 @@ impl Selection {
     /// The entry of the evaluation direction nearest to `w` (unit, from the object towards
     /// the viewer): largest dot product, lowest index on ties.
     pub fn lookup(&self, w: [f64; 3]) -> &Entry {
+        &self.entries[self.nearest(w)]
+    }
+
+    /// The index of the entry [`Selection::lookup`] returns.
+    pub fn nearest(&self, w: [f64; 3]) -> usize {
         let dirs = ori_views::evaluation_directions();
         let mut best = (0, f64::NEG_INFINITY);
         for (i, d) in dirs.iter().enumerate().take(self.entries.len()) {
@@ -177,7 +182,7 @@ impl Selection {
                 best = (i, dot);
             }
         }
-        &self.entries[best.0]
+        best.0
     }
 
     /// The canonical byte layout (see `codec.rs`).
