@@ -176,16 +176,8 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
          error max {:.3}%, avg {:.3}%, impostors per view {:.2}",
         params.rule, table.max_percent, table.avg_percent, table.avg_impostors
     );
-    let subset = |w: [f64; 3]| {
-        let entry = selection.lookup(w);
-        entry.impostors.iter().map(|&i| usize::from(i)).collect()
-    };
-    let held_out = ori_select::held_out(
-        &evaluator,
-        &ori_views::held_out_directions(args.held_out_seed),
-        &subset,
-    )
-    .map_err(|e| e.to_string())?;
+    let held_out = ori_pipeline::ori::held_out(&mesh, set, &selection, params, args.held_out_seed)
+        .map_err(|e| e.to_string())?;
     let between = held_out.first(1280);
     println!(
         "{} between the table's directions (1280 views, each drawn with its nearest entry's \

@@ -5,7 +5,8 @@
 //! Framing, the views to measure (`ori_select::MaskPlan`) and the reference mesh coverage stay
 //! on the CPU evaluator, and the masks go through `ori_select::select_from_masks`, so the two
 //! backends differ only where the device's arithmetic differs from the CPU's (on the software
-//! driver they agree pixel for pixel; see `ori-render`'s parity test). The results are therefore device-dependent:
+//! driver they agree pixel for pixel; see `ori-render`'s parity test). The results are
+//! therefore device-dependent:
 //! the select job's parameters name the backend and the adapter, so GPU results get their own
 //! cache keys and never stand in for CPU results.
 

@@ -83,7 +83,8 @@ pub fn page(report: &ReportSummary) -> String {
          Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, at the \
          held-out directions (none of which a stage chose anything at; table: at the 320 \
          directions of the selection table). PLT: the largest on-screen size (pixels) the ORI \
-         may be drawn at, from the worst held-out view. p_dif: mean colour error (0-765) over the four comparison views. \
+         may be drawn at, from the worst held-out view. p_dif: mean colour error (0-765) over \
+         the four comparison views. \
          Click a column to sort.</p>\n"
     );
     summary_table(&mut h, report);

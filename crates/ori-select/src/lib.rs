@@ -174,7 +174,9 @@ impl Selection {
 
     /// The index of the entry [`Selection::lookup`] returns.
     pub fn nearest(&self, w: [f64; 3]) -> usize {
-        let dirs = ori_views::evaluation_directions();
+        // Called once per view the held-out measure draws: the directions are made once.
+        static DIRECTIONS: std::sync::OnceLock<Vec<[f64; 3]>> = std::sync::OnceLock::new();
+        let dirs = DIRECTIONS.get_or_init(ori_views::evaluation_directions);
         let mut best = (0, f64::NEG_INFINITY);
         for (i, d) in dirs.iter().enumerate().take(self.entries.len()) {
             let dot = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
