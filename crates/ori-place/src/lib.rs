@@ -10,9 +10,10 @@
 //! selection uses) and moves impostors while that lowers the worst view's error.
 //!
 //! # The search
-//! - **Candidates.** An impostor may move to one of the 320 evaluation directions. Each
-//!   candidate is baked once, with the asset's bake parameters, alongside the planned
-//!   directions.
+//! - **Candidates.** An impostor may move to one of the 320 evaluation directions. A
+//!   candidate is baked, with the asset's bake parameters, the first time a move to it is
+//!   tried (a map does not depend on which others are baked, and most candidates are never
+//!   tried).
 //! - **A view's error.** The selection (`best:M`) draws, for a view, a subset of the `M`
 //!   closest impostors that face it (`d . w > 0`, closest first, ties in impostor order).
 //!   Adding impostors never loses pixels, so the least error a view can reach is that of all
@@ -41,6 +42,7 @@ use ori_bake::{BakeError, BakeParams};
 use ori_eval::{EvalError, EvalParams, Evaluator, Mask};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
+use ori_relief::ReliefSet;
 use ori_views::{ViewError, ViewPlan};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -146,8 +148,10 @@ pub fn place(
     let evaluation = ori_views::evaluation_directions();
     let mut candidates = plan.directions.clone();
     candidates.extend(&evaluation);
-    let set = ori_bake::bake(mesh, &candidates, measure.bake)?;
-    let evaluator = Evaluator::new(mesh, &set, measure.eval)?;
+    let mut baked = Baked::new(candidates.len());
+    let planned: Vec<usize> = (0..plan.directions.len()).collect();
+    baked.bake(mesh, &candidates, &planned, measure.bake)?;
+    let evaluator = Evaluator::new(mesh, &baked.set, measure.eval)?;
     let views: Vec<OrthoView> = evaluation
         .iter()
         .map(|&w| evaluator.view(w))
@@ -156,10 +160,13 @@ pub fn place(
         .par_iter()
         .map(|v| evaluator.mesh_coverage(v))
         .collect();
+    drop(evaluator);
     let mut search = Search {
+        mesh,
+        measure,
         candidates: &candidates,
         evaluation: &evaluation,
-        evaluator: &evaluator,
+        baked,
         views: &views,
         references: &references,
         closest: measure.closest,
@@ -168,7 +175,7 @@ pub fn place(
 
     let step_cos = ori_math::sin_cos(params.step_deg * (std::f64::consts::PI / 180.0)).1;
     let mut chosen: Vec<usize> = (0..plan.directions.len()).collect();
-    search.fill(std::slice::from_ref(&chosen));
+    search.fill(std::slice::from_ref(&chosen))?;
     let mut errors = search.errors(&chosen);
     let worst_before = errors.iter().copied().max().unwrap_or(0);
     let mut current = score(&errors);
@@ -193,7 +200,7 @@ pub fn place(
                     })
             })
             .collect();
-        search.fill(&trials);
+        search.fill(&trials)?;
         let scored: Vec<(u32, u64)> = trials
             .par_iter()
             .map(|t| score(&search.errors(t)))
@@ -249,13 +256,57 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// The candidate maps baked so far: a candidate is baked the first time a mask of it is
+/// needed (most are never tried), and its map does not depend on which others are baked.
+struct Baked {
+    /// The maps, in the order they were baked.
+    set: ReliefSet,
+    /// Each candidate's map in `set`, once baked.
+    slot: Vec<Option<usize>>,
+}
+
+impl Baked {
+    fn new(candidates: usize) -> Baked {
+        Baked {
+            set: ReliefSet { maps: Vec::new() },
+            slot: vec![None; candidates],
+        }
+    }
+
+    /// Bake those of `wanted` (ascending, no repeats) not baked yet.
+    fn bake(
+        &mut self,
+        mesh: &Mesh,
+        candidates: &[[f64; 3]],
+        wanted: &[usize],
+        params: &BakeParams,
+    ) -> Result<(), BakeError> {
+        let new: Vec<usize> = wanted
+            .iter()
+            .copied()
+            .filter(|&c| self.slot[c].is_none())
+            .collect();
+        if new.is_empty() {
+            return Ok(());
+        }
+        let directions: Vec<[f64; 3]> = new.iter().map(|&c| candidates[c]).collect();
+        let maps = ori_bake::bake(mesh, &directions, params)?.maps;
+        for (c, map) in new.into_iter().zip(maps) {
+            self.slot[c] = Some(self.set.maps.len());
+            self.set.maps.push(map);
+        }
+        Ok(())
+    }
+}
+
 /// The measured state of a search: candidate maps and the masks computed so far.
 struct Search<'a> {
+    mesh: &'a Mesh,
+    measure: &'a Measure<'a>,
     /// The planned directions, then the evaluation directions.
     candidates: &'a [[f64; 3]],
     evaluation: &'a [[f64; 3]],
-    /// Renders the candidates' masks (its relief set holds one map per candidate).
-    evaluator: &'a Evaluator<'a>,
+    baked: Baked,
     views: &'a [OrthoView],
     /// The mesh's coverage of each evaluation view.
     references: &'a [Mask],
@@ -284,8 +335,9 @@ impl Search<'_> {
         view * self.candidates.len() + candidate
     }
 
-    /// Compute the masks `sets` need that are not kept yet (in parallel, stored in order).
-    fn fill(&mut self, sets: &[Vec<usize>]) {
+    /// Compute the masks `sets` need that are not kept yet (in parallel, stored in order),
+    /// baking the candidates they draw first.
+    fn fill(&mut self, sets: &[Vec<usize>]) -> Result<(), PlaceError> {
         let mut missing = vec![false; self.masks.len()];
         for chosen in sets {
             for view in 0..self.views.len() {
@@ -296,18 +348,29 @@ impl Search<'_> {
             }
         }
         let todo: Vec<usize> = (0..missing.len()).filter(|&k| missing[k]).collect();
+        if todo.is_empty() {
+            return Ok(());
+        }
         let n = self.candidates.len();
+        let mut wanted: Vec<usize> = todo.iter().map(|&k| k % n).collect();
+        wanted.sort_unstable();
+        wanted.dedup();
+        self.baked
+            .bake(self.mesh, self.candidates, &wanted, self.measure.bake)?;
+        let evaluator = Evaluator::new(self.mesh, &self.baked.set, self.measure.eval)?;
+        let slot = &self.baked.slot;
         let made: Vec<Mask> = todo
             .par_iter()
             .map(|&k| {
                 let (view, c) = (k / n, k % n);
-                self.evaluator
-                    .impostor_mask(&self.views[view], c, Some(&self.references[view]))
+                let map = slot[c].expect("baked above");
+                evaluator.impostor_mask(&self.views[view], map, Some(&self.references[view]))
             })
             .collect();
         for (k, mask) in todo.into_iter().zip(made) {
             self.masks[k] = Some(mask);
         }
+        Ok(())
     }
 
     /// Per view, the pixels the mesh covers that none of its drawn candidates covers. The
