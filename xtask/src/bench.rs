@@ -27,7 +27,7 @@ pub enum Bench {
         runs: usize,
     },
     /// Time selection (coverage masks, then the subset search) + PLT (the held-out measure) at
-    /// the defaults (best:6, s0 = 256) on real models of growing size, with the default thread
+    /// the defaults (best:8, s0 = 256) on real models of growing size, with the default thread
     /// pool.
     Select {
         /// Timed runs per model (the median is reported).

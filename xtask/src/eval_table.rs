@@ -27,6 +27,10 @@ pub struct Args {
     /// Placement search: the most impostor moves (`[place] max_moves`; 0: off).
     #[arg(long)]
     place_moves: Option<u32>,
+    /// Placement search: how many closest impostors each table view must be drawable with
+    /// (`[place] closest`).
+    #[arg(long)]
+    place_closest: Option<u32>,
     /// Relief-map resolution.
     #[arg(long, default_value_t = 256)]
     resolution: u32,
@@ -34,7 +38,7 @@ pub struct Args {
     #[arg(long, default_value_t = 2)]
     supersample: u32,
     /// The `best:M` rule of the last column.
-    #[arg(long, default_value = "best:6")]
+    #[arg(long, default_value = "best:8")]
     best: Rule,
     /// Coverage-error goal of `best:M`, percent of s0 x s0.
     #[arg(long)]
@@ -107,6 +111,9 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         max_moves: args
             .place_moves
             .unwrap_or(ori_place::PlaceParams::default().max_moves),
+        closest: args
+            .place_closest
+            .unwrap_or(ori_place::PlaceParams::default().closest),
         ..Default::default()
     };
     let ori_params = OriParams {

@@ -56,7 +56,7 @@ pub fn place(
     let measure = Measure {
         bake,
         eval: &select.eval_params(),
-        closest: select.rule.m() as usize,
+        closest: place.closest.min(select.rule.m()) as usize,
         goal_pixels: select.goal_pixels(),
         entropy_size: item_buffer_size,
     };

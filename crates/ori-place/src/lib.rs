@@ -16,12 +16,14 @@
 //!   tried).
 //! - **A view's error.** The selection (`best:M`) draws, for a view, a subset of the `M`
 //!   closest impostors that face it (`d . w > 0`, closest first, ties in impostor order).
-//!   Adding impostors never loses pixels, so the least error a view can reach is that of all
-//!   `M` together: the pixels the mesh covers that none of their masks covers. That is what
-//!   the search lowers. Masks are those of `ori_eval::Evaluator::impostor_mask`, computed
+//!   Adding impostors never loses pixels, so the least error a view can reach with its `K`
+//!   closest ([`PlaceParams::closest`], at most `M`) is that of all `K` together: the pixels
+//!   the mesh covers that none of their masks covers. That is what the search lowers; the
+//!   `M - K` farther candidates are left to the selection, for the edges of each entry's
+//!   region. Masks are those of `ori_eval::Evaluator::impostor_mask`, computed
 //!   once per (view, candidate) pair and kept.
 //! - **A step.** Take the worst view (most pixels missed; ties: the lower index). Each
-//!   impostor among its `M` closest may move to any free candidate within
+//!   impostor among its `K` closest may move to any free candidate within
 //!   [`PlaceParams::step_deg`] of where it is. The move that leaves the lowest (worst error,
 //!   total error) wins, compared in that order; ties: the earlier impostor, then the earlier
 //!   candidate. It is made only if it lowers that pair.
@@ -57,6 +59,11 @@ pub struct PlaceParams {
     /// How far one move may take an impostor, in degrees (default 20: the nearest ring of
     /// evaluation directions, which lie 9 to 13 degrees apart; 5 to 90).
     pub step_deg: f64,
+    /// How many of its closest facing impostors each evaluation view must be drawable with
+    /// within the goal (default 6; 1 to 16, and never more than the selection rule's `M`).
+    /// Below `M`, selection keeps the farther candidates for the edges of each entry's region,
+    /// where the entry's own closest impostors are not the view's.
+    pub closest: u32,
 }
 
 impl Default for PlaceParams {
@@ -64,6 +71,7 @@ impl Default for PlaceParams {
         PlaceParams {
             max_moves: 32,
             step_deg: 20.0,
+            closest: 6,
         }
     }
 }
@@ -83,6 +91,12 @@ impl PlaceParams {
                 self.step_deg
             )));
         }
+        if !(1..=16).contains(&self.closest) {
+            return Err(PlaceError::Params(format!(
+                "place.closest = {} is out of range (1 to 16)",
+                self.closest
+            )));
+        }
         Ok(())
     }
 }
@@ -95,7 +109,8 @@ pub struct Measure<'a> {
     pub bake: &'a BakeParams,
     /// The evaluator's parameters (s0, search steps, wall threshold) of the selection.
     pub eval: &'a EvalParams,
-    /// `M` of the selection rule: how many closest facing impostors a view draws from.
+    /// How many closest facing impostors a view must be drawable with (`[place] closest`,
+    /// at most the selection rule's `M`).
     pub closest: usize,
     /// The selection's goal, in pixels of s0 x s0.
     pub goal_pixels: u32,
@@ -110,7 +125,7 @@ pub struct Placement {
     pub plan: ViewPlan,
     /// Moves made.
     pub moves: u32,
-    /// Pixels the worst view missed with all `M` closest impostors, before and after.
+    /// Pixels the worst view missed with all `K` closest impostors, before and after.
     pub worst_before: u32,
     pub worst_after: u32,
 }

@@ -83,7 +83,7 @@ impl From<Rule> for String {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SelectParams {
-    /// `"best:6"` (default) or `"closest:M"`.
+    /// `"best:8"` (default) or `"closest:M"`.
     pub rule: Rule,
     /// Coverage-error goal of `best:M` in an entry's own view, in percent of s0 x s0
     /// (default 0.2).
@@ -107,7 +107,7 @@ impl Default for SelectParams {
     fn default() -> Self {
         let e = EvalParams::default();
         SelectParams {
-            rule: Rule::Best(6),
+            rule: Rule::Best(8),
             goal_percent: 0.2,
             edge_goal_percent: 0.25,
             s0: e.s0,
