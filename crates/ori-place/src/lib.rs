@@ -44,7 +44,7 @@ use ori_bake::{BakeError, BakeParams};
 use ori_eval::{EvalError, EvalParams, Evaluator, Mask};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
-use ori_relief::ReliefSet;
+use ori_relief::{ReliefMap, ReliefSet};
 use ori_views::{ViewError, ViewPlan};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -163,10 +163,8 @@ pub fn place(
     let evaluation = ori_views::evaluation_directions();
     let mut candidates = plan.directions.clone();
     candidates.extend(&evaluation);
-    let mut baked = Baked::new(candidates.len());
-    let planned: Vec<usize> = (0..plan.directions.len()).collect();
-    baked.bake(mesh, &candidates, &planned, measure.bake)?;
-    let evaluator = Evaluator::new(mesh, &baked.set, measure.eval)?;
+    let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
+    let evaluator = Evaluator::new(mesh, &planned, measure.eval)?;
     let views: Vec<OrthoView> = evaluation
         .iter()
         .map(|&w| evaluator.view(w))
@@ -176,6 +174,8 @@ pub fn place(
         .map(|v| evaluator.mesh_coverage(v))
         .collect();
     drop(evaluator);
+    let mut baked: Vec<Option<ReliefMap>> = planned.maps.into_iter().map(Some).collect();
+    baked.resize(candidates.len(), None);
     let mut search = Search {
         mesh,
         measure,
@@ -184,7 +184,6 @@ pub fn place(
         baked,
         views: &views,
         references: &references,
-        closest: measure.closest,
         masks: vec![None; evaluation.len() * candidates.len()],
     };
 
@@ -271,49 +270,6 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// The candidate maps baked so far: a candidate is baked the first time a mask of it is
-/// needed (most are never tried), and its map does not depend on which others are baked.
-struct Baked {
-    /// The maps, in the order they were baked.
-    set: ReliefSet,
-    /// Each candidate's map in `set`, once baked.
-    slot: Vec<Option<usize>>,
-}
-
-impl Baked {
-    fn new(candidates: usize) -> Baked {
-        Baked {
-            set: ReliefSet { maps: Vec::new() },
-            slot: vec![None; candidates],
-        }
-    }
-
-    /// Bake those of `wanted` (ascending, no repeats) not baked yet.
-    fn bake(
-        &mut self,
-        mesh: &Mesh,
-        candidates: &[[f64; 3]],
-        wanted: &[usize],
-        params: &BakeParams,
-    ) -> Result<(), BakeError> {
-        let new: Vec<usize> = wanted
-            .iter()
-            .copied()
-            .filter(|&c| self.slot[c].is_none())
-            .collect();
-        if new.is_empty() {
-            return Ok(());
-        }
-        let directions: Vec<[f64; 3]> = new.iter().map(|&c| candidates[c]).collect();
-        let maps = ori_bake::bake(mesh, &directions, params)?.maps;
-        for (c, map) in new.into_iter().zip(maps) {
-            self.slot[c] = Some(self.set.maps.len());
-            self.set.maps.push(map);
-        }
-        Ok(())
-    }
-}
-
 /// The measured state of a search: candidate maps and the masks computed so far.
 struct Search<'a> {
     mesh: &'a Mesh,
@@ -321,11 +277,12 @@ struct Search<'a> {
     /// The planned directions, then the evaluation directions.
     candidates: &'a [[f64; 3]],
     evaluation: &'a [[f64; 3]],
-    baked: Baked,
+    /// Each candidate's map, baked the first time a mask of it is needed (its map does not
+    /// depend on which others are baked).
+    baked: Vec<Option<ReliefMap>>,
     views: &'a [OrthoView],
     /// The mesh's coverage of each evaluation view.
     references: &'a [Mask],
-    closest: usize,
     /// `masks[view * candidates.len() + candidate]`, within the view's reference.
     masks: Vec<Option<Mask>>,
 }
@@ -342,7 +299,7 @@ impl Search<'_> {
             .collect();
         // Stable: equal dot products keep impostor order.
         facing.sort_by(|a, b| b.0.total_cmp(&a.0));
-        facing.truncate(self.closest);
+        facing.truncate(self.measure.closest);
         facing.into_iter().map(|(_, c)| c).collect()
     }
 
@@ -370,19 +327,39 @@ impl Search<'_> {
         let mut wanted: Vec<usize> = todo.iter().map(|&k| k % n).collect();
         wanted.sort_unstable();
         wanted.dedup();
-        self.baked
-            .bake(self.mesh, self.candidates, &wanted, self.measure.bake)?;
-        let evaluator = Evaluator::new(self.mesh, &self.baked.set, self.measure.eval)?;
-        let slot = &self.baked.slot;
-        let made: Vec<Mask> = todo
-            .par_iter()
-            .map(|&k| {
-                let (view, c) = (k / n, k % n);
-                let map = slot[c].expect("baked above");
-                evaluator.impostor_mask(&self.views[view], map, Some(&self.references[view]))
-            })
+        let unbaked: Vec<usize> = wanted
+            .iter()
+            .copied()
+            .filter(|&c| self.baked[c].is_none())
             .collect();
-        for (k, mask) in todo.into_iter().zip(made) {
+        let directions: Vec<[f64; 3]> = unbaked.iter().map(|&c| self.candidates[c]).collect();
+        if !directions.is_empty() {
+            let maps = ori_bake::bake(self.mesh, &directions, self.measure.bake)?.maps;
+            for (c, map) in unbaked.into_iter().zip(maps) {
+                self.baked[c] = Some(map);
+            }
+        }
+        // The evaluator gets only the maps this fill traces (moved out and back, not copied),
+        // so its per-map set-up is not redone for every map at every move.
+        let set = ReliefSet {
+            maps: wanted
+                .iter()
+                .map(|&c| self.baked[c].take().expect("baked above"))
+                .collect(),
+        };
+        let made = Evaluator::new(self.mesh, &set, self.measure.eval).map(|evaluator| {
+            todo.par_iter()
+                .map(|&k| {
+                    let (view, c) = (k / n, k % n);
+                    let map = wanted.binary_search(&c).expect("a wanted candidate");
+                    evaluator.impostor_mask(&self.views[view], map, Some(&self.references[view]))
+                })
+                .collect::<Vec<Mask>>()
+        });
+        for (&c, map) in wanted.iter().zip(set.maps) {
+            self.baked[c] = Some(map);
+        }
+        for (k, mask) in todo.into_iter().zip(made?) {
             self.masks[k] = Some(mask);
         }
         Ok(())
