@@ -185,6 +185,25 @@ pub fn traverse<'m>(
     out
 }
 
+/// The range of a tree: the largest on-screen size of the root (the projected edge of its
+/// bounding sphere, in pixels, orthographic camera) at which [`traverse`] draws no leaf mesh.
+/// `node(i)` is node `i`'s (PLT in pixels, bounding-sphere radius). Under an orthographic
+/// camera a node's projected size is the root's times `radius / root radius`, so node `i`
+/// fits up to a root size of `plt * root radius / radius`, and a node draws no leaf mesh up to
+/// the larger of that and the smallest such size among its children.
+pub fn leafless_size(tree: &HierarchyManifest, node: impl Fn(usize) -> (f64, f64)) -> f64 {
+    let root_radius = node(0).1;
+    let mut size = vec![0.0; tree.nodes.len()];
+    // Children come after their parent: from the last node back, a node's children are done.
+    for i in (0..tree.nodes.len()).rev() {
+        let (plt, radius) = node(i);
+        let own = plt * root_radius / radius;
+        let children = tree.nodes[i].children.iter().map(|&c| size[c as usize]);
+        size[i] = children.reduce(f64::min).map_or(own, |c: f64| c.max(own));
+    }
+    size[0]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -215,5 +234,46 @@ mod tests {
         assert_eq!(volume(&halves[0]) + volume(&halves[1]), volume(&cube));
         // No vertex: the midpoint.
         assert_eq!(split(&cube, SplitKind::Kd, &[])[0].max[0], 1.0);
+    }
+
+    #[test]
+    fn leafless_size_is_where_the_first_leaf_mesh_appears() {
+        let unit = [[0.0; 3], [1.0; 3]];
+        // Root 0 (PLT 300, radius 2) -> 1 (inner: PLT 100, radius 1) and 2 (leaf: PLT 200,
+        // radius 1); 1 -> leaves 3 (PLT 150, radius 0.5) and 4 (PLT 400, radius 0.5).
+        let children = [vec![1, 2], vec![3, 4], vec![], vec![], vec![]];
+        let tree = HierarchyManifest {
+            format_version: ori_package::HIERARCHY_FORMAT_VERSION,
+            tool: "test".into(),
+            source: ori_package::Source {
+                name: "m.obj".into(),
+                blake3: "0".repeat(64),
+            },
+            split: SplitKind::Kd,
+            target_px: 256.0,
+            nodes: children
+                .into_iter()
+                .map(|c| ori_package::HierarchyNode::new(unit, c))
+                .collect(),
+        };
+        let nodes = [
+            (300.0, 2.0),
+            (100.0, 1.0),
+            (200.0, 1.0),
+            (150.0, 0.5),
+            (400.0, 0.5),
+        ];
+        // Node 1 fits up to a root size of 200; its leaves up to 600 and 1600, so node 1's
+        // part holds to 600, node 2 to 400: the root's range is 400 (node 2's mesh next).
+        assert_eq!(leafless_size(&tree, |i| nodes[i]), 400.0);
+        // A root that fits further than its children: its own PLT.
+        let nodes = [
+            (900.0, 2.0),
+            (100.0, 1.0),
+            (200.0, 1.0),
+            (150.0, 0.5),
+            (400.0, 0.5),
+        ];
+        assert_eq!(leafless_size(&tree, |i| nodes[i]), 900.0);
     }
 }

@@ -80,8 +80,9 @@ const PICTURE_SIZE: u32 = 256;
 
 /// Version of every picture's drawing, the evaluator's rendering rule included: bump it when
 /// either changes, so that the pictures kept from an older report are drawn again. (3: the
-/// reference mesh culls the back faces of single-sided materials.)
-pub const PICTURES_VERSION: u32 = 3;
+/// reference mesh culls the back faces of single-sided materials; 4: the hierarchy note gives
+/// the size up to which no leaf mesh is drawn.)
+pub const PICTURES_VERSION: u32 = 4;
 
 /// What [`pictures_of`] adds to an asset's summary, kept beside its pictures with the stamp
 /// of what they were drawn from.
@@ -349,13 +350,18 @@ fn pictures_of(
             let leaves = h.manifest.nodes.iter();
             let leaves = leaves.filter(|n| n.children.is_empty()).count();
             let plts: Vec<f64> = h.nodes.iter().map(|n| n.manifest.plt.pixels).collect();
+            let leafless = ori_hierarchy::leafless_size(&h.manifest, |i| {
+                (plts[i], h.nodes[i].manifest.bounding_sphere.radius)
+            });
             s.notes.push(format!(
-                "A hierarchy of {} nodes ({leaves} leaves, node PLTs {:.0} to {:.0} px): the \
-                 pictures show its root, the whole object as one ORI; texture bytes count \
-                 every node.",
+                "A hierarchy of {} nodes ({leaves} leaves, node PLTs {:.0} to {:.0} px; no \
+                 leaf mesh is drawn up to an object size of {leafless:.0} px, {:.2} x the \
+                 root's PLT): the pictures show its root, the whole object as one ORI; texture \
+                 bytes count every node.",
                 plts.len(),
                 plts.iter().copied().fold(f64::MAX, f64::min),
                 plts.iter().copied().fold(0.0, f64::max),
+                leafless / plts[0],
             ));
             h.nodes.into_iter().next().expect("a root")
         }
