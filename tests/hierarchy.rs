@@ -59,10 +59,14 @@ fn directions() -> Vec<[f64; 3]> {
 
 #[test]
 fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
-    // The armadillo split once: the root and its non-empty octants.
+    // The armadillo split once: the root and its non-empty octants, placed (the planned
+    // directions leave some octants' worst views far below the root's) and measured at
+    // s0 = 128 (at the tests' usual 64 a worst view misses a few dozen pixels, too coarse a
+    // PLT to compare nodes by).
     let p = project(
         "stanford/armadillo/armadillo_odedstein_remeshed.obj",
-        "max_depth = 1\ntarget_px = 1000000\n",
+        "max_depth = 1\ntarget_px = 1000000\n[place]\n\
+         [[overrides]]\nassets = \"**\"\nselect.s0 = 128\n",
     );
     ok(&p.build(&[]));
     let h = read_hierarchy(&p, "stanford/armadillo/armadillo_odedstein_remeshed.ori");
@@ -103,6 +107,37 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
         children_missed <= parent_missed,
         "children miss {children_missed} pixels, the parent {parent_missed}"
     );
+
+    // The range: the object size up to which the traversal draws no leaf mesh, here (an
+    // orthographic camera) just where the first leaf mesh appears.
+    let leafless = ori_hierarchy::leafless_size(&h.manifest, |i| {
+        let m = &h.nodes[i].manifest;
+        (m.plt.pixels, m.bounding_sphere.radius)
+    });
+    let meshes_at = |size: f64| {
+        let per_unit = size / (2.0 * radius);
+        let edge = |_: [f64; 3], r: f64| Some(ori_plt::ortho_sphere_edge(r, per_unit));
+        let visits = ori_hierarchy::traverse(&h.manifest, |i| &h.nodes[i].manifest, &edge);
+        visits
+            .iter()
+            .filter(|v| matches!(v, Visit::Mesh(_)))
+            .count()
+    };
+    assert_eq!(meshes_at(leafless * 0.999), 0);
+    assert!(meshes_at(leafless * 1.001) > 0);
+    for (i, n) in h.nodes.iter().enumerate() {
+        let m = &n.manifest;
+        let scaled = m.plt.pixels * radius / m.bounding_sphere.radius;
+        eprintln!(
+            "node {i}: PLT {:.0} px, radius {:.3}: fits up to {scaled:.0} px",
+            m.plt.pixels, m.bounding_sphere.radius
+        );
+    }
+    let range = leafless / root.plt.pixels;
+    eprintln!("no leaf mesh up to {leafless:.0} px: {range:.2} x the root's PLT");
+    // Measured 1.68 with nodes measured in their own pixels (1.00 when what a node's cuts
+    // expose counted against it: a leaf mesh as soon as the root stops fitting).
+    assert!(range >= 1.5, "{range:.2} x the root's PLT");
 }
 
 /// The leaf meshes a runtime supplies: the model clipped to each leaf's cell.

@@ -267,6 +267,7 @@ fn place(runs: usize) -> Result<(), String> {
                     &params.bake,
                     &params.select,
                     params.views.item_buffer_size,
+                    None,
                 )
                 .map_err(|e| e.to_string())?,
             );
@@ -327,6 +328,7 @@ fn select(runs: usize) -> Result<(), String> {
                 &selection,
                 select,
                 ori_views::DEFAULT_HELD_OUT_SEED,
+                None,
             )
             .map_err(|e| e.to_string())?;
             plt = Some(ori::plt(&held_out));

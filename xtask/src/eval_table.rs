@@ -183,8 +183,9 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
          error max {:.3}%, avg {:.3}%, impostors per view {:.2}",
         params.rule, table.max_percent, table.avg_percent, table.avg_impostors
     );
-    let held_out = ori_pipeline::ori::held_out(&mesh, set, &selection, params, args.held_out_seed)
-        .map_err(|e| e.to_string())?;
+    let held_out =
+        ori_pipeline::ori::held_out(&mesh, set, &selection, params, args.held_out_seed, None)
+            .map_err(|e| e.to_string())?;
     let between = held_out.first(1280);
     println!(
         "{} between the table's directions (1280 views, each drawn with its nearest entry's \

@@ -6,7 +6,9 @@
 //!
 //! - the reference mesh: coverage ([`Evaluator::mesh_coverage`], the fast path, equal pixel
 //!   for pixel to `ori_raster::rasterize`), or coverage, depth, albedo and normal
-//!   ([`Evaluator::render_mesh`]);
+//!   ([`Evaluator::render_mesh`]); for a part of a larger model (a hierarchy node,
+//!   [`Evaluator::part_of`]) only the pixels where the whole model's nearest surface is the
+//!   part's;
 //! - an ORI drawn with an ordered subset of impostors, following the runtime rule of
 //!   `GUIDE.md` step by step ([`march`] states it): per impostor a [`Layer`] of fragments, or
 //!   only its coverage [`Mask`] ([`Evaluator::impostor_mask`]), composed with a fragment
@@ -90,6 +92,7 @@ mod coverage;
 mod lanes;
 pub mod march;
 mod mask;
+mod part;
 mod reference;
 mod render;
 
@@ -101,6 +104,7 @@ use serde::{Deserialize, Serialize};
 pub use compare::{Shading, ViewErrors, compare, error_image, percent, write_error_png};
 pub use march::{ImpostorRays, MarchParams, Simd, Trace, WallMap};
 pub use mask::Mask;
+pub use part::Whole;
 pub use reference::eval_view;
 pub use render::{Layer, NO_SOURCE, Render};
 
@@ -212,6 +216,8 @@ pub struct Evaluator<'a> {
     coverage_mesh: coverage::CoverageMesh,
     /// [`Mesh::single_sided`], for the reference raster.
     single_sided: Vec<bool>,
+    /// When the mesh is a part of a larger model: the model (see [`Evaluator::part_of`]).
+    whole: Option<part::WholeModel<'a>>,
 }
 
 impl<'a> Evaluator<'a> {
@@ -251,7 +257,16 @@ impl<'a> Evaluator<'a> {
             occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
             coverage_mesh: coverage::CoverageMesh::new(mesh, &single_sided),
             single_sided,
+            whole: None,
         })
+    }
+
+    /// Measure the mesh as a part of `whole` (a hierarchy node): the reference keeps only the
+    /// pixels where the whole model's nearest surface lies inside the box the part was
+    /// clipped to; at the others the rest of the model is in front of the part.
+    pub fn part_of(mut self, whole: Whole<'a>) -> Evaluator<'a> {
+        self.whole = Some(part::WholeModel::new(whole));
+        self
     }
 
     pub fn params(&self) -> &EvalParams {
@@ -289,14 +304,28 @@ impl<'a> Evaluator<'a> {
         order
     }
 
-    /// Pixels the mesh covers (single-sided triangles only from the front).
+    /// Pixels the mesh covers (single-sided triangles only from the front; for a part, only
+    /// its own: [`Evaluator::part_of`]).
     pub fn mesh_coverage(&self, view: &OrthoView) -> Mask {
-        coverage::coverage(view, &self.coverage_mesh, self.alpha.as_ref())
+        let mut coverage = coverage::coverage(view, &self.coverage_mesh, self.alpha.as_ref());
+        if let Some(whole) = &self.whole {
+            coverage.remove(&whole.in_front(view, &coverage));
+        }
+        coverage
     }
 
-    /// The full reference render of the mesh.
+    /// The full reference render of the mesh (for a part, of its own pixels only).
     pub fn render_mesh(&self, view: &OrthoView) -> Result<Render, EvalError> {
-        reference::render(self.mesh, self.alpha.as_ref(), &self.single_sided, view)
+        let mut render =
+            reference::render(self.mesh, self.alpha.as_ref(), &self.single_sided, view)?;
+        if let Some(whole) = &self.whole {
+            let hidden = whole.in_front(view, &render.coverage);
+            for i in hidden.ones() {
+                render.clear(i);
+            }
+            render.coverage.remove(&hidden);
+        }
+        Ok(render)
     }
 
     /// The rays of `view` in impostor `impostor`'s texture space (`None` when it does not

@@ -114,7 +114,7 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
 
 /// The mesh through `view`, with the bake's alpha test and back-face culling
 /// (`single_sided`: [`Mesh::single_sided`]).
-fn raster(
+pub(crate) fn raster(
     mesh: &Mesh,
     alpha: Option<&AlphaCut<'_>>,
     single_sided: &[bool],

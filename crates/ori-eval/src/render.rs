@@ -30,6 +30,14 @@ pub struct Render {
 }
 
 impl Render {
+    /// Pixel `i` as where nothing is drawn (its coverage bit aside).
+    pub(crate) fn clear(&mut self, i: usize) {
+        self.depth[i] = f32::NAN;
+        self.albedo[i] = [0; 3];
+        self.normal[i] = [0.0; 3];
+        self.source[i] = NO_SOURCE;
+    }
+
     pub(crate) fn empty(size: u32) -> Render {
         let n = size as usize * size as usize;
         Render {

@@ -159,13 +159,7 @@ fn culling_leaves_out_the_inside_seen_through_a_cut() {
     // the far half's shell (back faces, culled: the bunny is single-sided); from -x the
     // outside. The fast path culls exactly as the rasterizer does.
     let (mesh, set) = common::bunny();
-    let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
-    for p in &mesh.positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(f64::from(p[k]));
-            hi[k] = hi[k].max(f64::from(p[k]));
-        }
-    }
+    let [lo, hi] = common::bounds(mesh);
     let mid = (lo[0] + hi[0]) / 2.0;
     let half = ori_mesh::clip_to_box(mesh, lo, [mid, hi[1], hi[2]]).unwrap();
     let ev = Evaluator::new(&half, set, &EvalParams::default()).unwrap();

@@ -12,7 +12,7 @@
 
 use std::sync::OnceLock;
 
-use ori_eval::{Evaluator, Mask};
+use ori_eval::Mask;
 use ori_mesh::Mesh;
 use ori_relief::ReliefSet;
 use ori_render::{Camera, Draw, Renderer};
@@ -28,15 +28,17 @@ pub fn renderer() -> Result<&'static Renderer, String> {
         .map_err(Clone::clone)
 }
 
-/// `ori_select::select` with the coverage masks drawn by `renderer`.
+/// `ori_select::select` with the coverage masks drawn by `renderer` (of a part of `whole`
+/// when given: `crate::ori::select`).
 pub fn select(
     mesh: &Mesh,
     set: &ReliefSet,
     params: &SelectParams,
+    whole: Option<ori_eval::Whole<'_>>,
     renderer: &Renderer,
 ) -> Result<Selection, String> {
     params.validate().map_err(|e| e.to_string())?;
-    let evaluator = Evaluator::new(mesh, set, &params.eval_params()).map_err(|e| e.to_string())?;
+    let evaluator = crate::ori::evaluator(mesh, set, params, whole).map_err(|e| e.to_string())?;
     // The renderer loads packages: wrap the maps in one (exact R8 depth, which is all that
     // coverage reads; quickly compressed colour and normal; a placeholder table).
     let package = crate::stages::package::measuring_package(set, params)?;

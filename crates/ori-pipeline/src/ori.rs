@@ -14,6 +14,7 @@
 use std::time::{Duration, Instant};
 
 use ori_bake::BakeParams;
+use ori_eval::{Evaluator, Whole};
 use ori_mesh::Mesh;
 use ori_place::{Measure, PlaceError, PlaceParams, Placement};
 use ori_plt::Plt;
@@ -44,7 +45,8 @@ pub enum OriError {
 }
 
 /// Step 2: placement, measured with the bake and the selection that come after it (the
-/// result depends on them) and the views' item-buffer size for entropies.
+/// result depends on them) and the views' item-buffer size for entropies; `whole` when `mesh`
+/// is a part of a larger model (a hierarchy node, measured in its own pixels).
 pub fn place(
     mesh: &Mesh,
     plan: &ViewPlan,
@@ -52,6 +54,7 @@ pub fn place(
     bake: &BakeParams,
     select: &SelectParams,
     item_buffer_size: u32,
+    whole: Option<Whole<'_>>,
 ) -> Result<Placement, PlaceError> {
     let measure = Measure {
         bake,
@@ -59,20 +62,48 @@ pub fn place(
         closest: place.closest.min(select.rule.m()) as usize,
         goal_pixels: select.goal_pixels(),
         entropy_size: item_buffer_size,
+        whole,
     };
     ori_place::place(mesh, plan, &measure, place)
 }
 
+/// Step 4 for a part of a larger model (`whole`, a hierarchy node): the selection measured in
+/// the part's own pixels; `ori_select::select` otherwise.
+pub fn select(
+    mesh: &Mesh,
+    set: &ReliefSet,
+    select: &SelectParams,
+    whole: Option<Whole<'_>>,
+) -> Result<Selection, ori_select::SelectError> {
+    ori_select::select_with(&evaluator(mesh, set, select, whole)?, select)
+}
+
+/// The evaluator of the selection's parameters, of a part of `whole` when given.
+pub fn evaluator<'a>(
+    mesh: &'a Mesh,
+    set: &'a ReliefSet,
+    select: &SelectParams,
+    whole: Option<Whole<'a>>,
+) -> Result<Evaluator<'a>, ori_eval::EvalError> {
+    let evaluator = Evaluator::new(mesh, set, &select.eval_params())?;
+    Ok(match whole {
+        Some(whole) => evaluator.part_of(whole),
+        None => evaluator,
+    })
+}
+
 /// Step 5a: the runtime rule (each view draws its nearest entry's subset) measured at the
-/// held-out directions of `seed`, with the evaluator of the selection.
+/// held-out directions of `seed`, with the evaluator of the selection (of a part of `whole`
+/// when given).
 pub fn held_out(
     mesh: &Mesh,
     set: &ReliefSet,
     selection: &Selection,
     select: &SelectParams,
     seed: u64,
+    whole: Option<Whole<'_>>,
 ) -> Result<HeldOut, ori_select::SelectError> {
-    let evaluator = ori_eval::Evaluator::new(mesh, set, &select.eval_params())?;
+    let evaluator = evaluator(mesh, set, select, whole)?;
     let subset = |w: [f64; 3]| {
         let entry = selection.lookup(w);
         entry.impostors.iter().map(|&i| usize::from(i)).collect()
@@ -116,6 +147,7 @@ pub fn build_maps(mesh: &Mesh, params: &OriParams) -> Result<Maps, OriError> {
         &params.bake,
         &params.select,
         params.views.item_buffer_size,
+        None,
     )?;
     times.place = start.elapsed();
     let start = Instant::now();
@@ -150,6 +182,7 @@ pub fn build_ori(mesh: &Mesh, params: &OriParams) -> Result<Ori, OriError> {
         &selection,
         &params.select,
         ori_views::DEFAULT_HELD_OUT_SEED,
+        None,
     )?;
     let plt = plt(&held_out);
     Ok(Ori {

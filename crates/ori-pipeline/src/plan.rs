@@ -8,7 +8,7 @@ use crate::config::StageParams;
 use crate::discover::Asset;
 use crate::hierarchy::PlannedTree;
 use crate::stages::bake::{Bake, MAPS};
-use crate::stages::clip::{Clip, ClipParams};
+use crate::stages::clip::{Clip, ClipParams, WHOLE};
 use crate::stages::compress::{Compress, TEXTURES};
 use crate::stages::hierarchy::{Hierarchy, TreeParams, node_input};
 use crate::stages::ingest::{Ingest, IngestJob, MESH, SOURCE};
@@ -153,46 +153,56 @@ impl Planner {
         ingest: Job<Ingest>,
         clip: &ori_hierarchy::Cell,
     ) -> Job<Clip> {
-        let params = ClipParams {
-            min: clip.min,
-            max: clip.max,
-        };
-        self.add::<Clip>(label, &params, vec![MESH.from(ingest)])
+        self.add::<Clip>(label, &ClipParams::of(clip), vec![MESH.from(ingest)])
     }
 
     /// Add the chain of one ORI of `planned` (labelled `label` in progress and messages) over
     /// the mesh output of `mesh`: the asset's own mesh (ingest), or a hierarchy node's part
-    /// of it (clip). (Through a node's cuts one sees back faces, culled unless double-sided.)
+    /// of it (clip), when `part` gives the asset's ingest and the clip box: the node is then
+    /// measured in its own pixels (`ori_eval::Whole`), where the rest of the model is not in
+    /// front of it.
     fn chain<M: Makes<Mesh>>(
         &mut self,
         label: &str,
         planned: &PlannedAsset,
         mesh: Job<M>,
+        part: Option<(Job<Ingest>, ClipParams)>,
     ) -> Chain {
         let (asset, params) = (&planned.asset, &planned.params);
-        let mesh_in = || MESH.from(mesh);
-        let views = self.add::<Views>(label, &params.views, vec![mesh_in()]);
+        let part_of = part.map(|(_, clip)| clip);
+        // The measuring jobs' inputs: the mesh, `more`, and the whole mesh of a part.
+        let measuring = |more: Vec<(&'static str, Input)>| {
+            let whole = part.map(|(ingest, _)| (WHOLE.name, MESH.of(ingest)));
+            [MESH.from(mesh)]
+                .into_iter()
+                .chain(more)
+                .chain(whole)
+                .collect()
+        };
+        let views = self.add::<Views>(label, &params.views, vec![MESH.from(mesh)]);
         let place_job = PlaceJob {
             place: params.place.clone(),
             bake: params.bake.clone(),
             select: params.select.clone(),
             item_buffer_size: params.views.item_buffer_size,
+            part_of,
         };
-        let place = self.add::<Place>(label, &place_job, vec![mesh_in(), PLAN.from(views)]);
-        let bake = self.add::<Bake>(label, &params.bake, vec![mesh_in(), PLAN.from(place)]);
+        let place = self.add::<Place>(label, &place_job, measuring(vec![PLAN.from(views)]));
+        let bake = self.add::<Bake>(label, &params.bake, vec![MESH.from(mesh), PLAN.from(place)]);
         let select = self.add::<Select>(
             label,
-            &SelectJob::new(&params.select, params.select_device.as_deref()),
-            vec![mesh_in(), MAPS.from(bake)],
+            &SelectJob::new(&params.select, params.select_device.as_deref(), part_of),
+            measuring(vec![MAPS.from(bake)]),
         );
         let plt_job = PltJob {
             select: params.select.clone(),
             held_out_seed: params.plt.held_out_seed,
+            part_of,
         };
         let plt = self.add::<PltStage>(
             label,
             &plt_job,
-            vec![mesh_in(), MAPS.from(bake), SELECTION.from(select)],
+            measuring(vec![MAPS.from(bake), SELECTION.from(select)]),
         );
         if planned.measure_only {
             return Chain {
@@ -240,7 +250,7 @@ impl Planner {
     pub fn asset(&mut self, planned: &PlannedAsset) -> AssetJobs {
         let asset = &planned.asset;
         let ingest = self.ingest(planned);
-        let root = self.chain(&asset.name, planned, ingest);
+        let root = self.chain(&asset.name, planned, ingest, None);
         let mut nodes = Vec::new();
         let mut measured = vec![(ingest.id, root.plt.id)];
         let mut package = root.package.map(|j| j.id);
@@ -250,7 +260,8 @@ impl Planner {
                 let label = node_label(&asset.name, i);
                 let cell = node.clip.as_ref().unwrap_or(&node.cell);
                 let clip = self.clip(&label, ingest, cell);
-                let chain = self.chain(&label, planned, clip);
+                let part = Some((ingest, ClipParams::of(cell)));
+                let chain = self.chain(&label, planned, clip, part);
                 nodes.push(clip.id);
                 nodes.extend(chain.jobs());
                 measured.push((clip.id, chain.plt.id));

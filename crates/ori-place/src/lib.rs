@@ -116,6 +116,9 @@ pub struct Measure<'a> {
     pub goal_pixels: u32,
     /// Item-buffer edge for the entropies of moved directions (`[views] item_buffer_size`).
     pub entropy_size: u32,
+    /// When the mesh is a part of a larger model (a hierarchy node), that model: the part is
+    /// measured in its own pixels (`ori_eval::Evaluator::part_of`).
+    pub whole: Option<ori_eval::Whole<'a>>,
 }
 
 /// The placed directions and what the search did.
@@ -164,7 +167,10 @@ pub fn place(
     let mut candidates = plan.directions.clone();
     candidates.extend(&evaluation);
     let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
-    let evaluator = Evaluator::new(mesh, &planned, measure.eval)?;
+    let mut evaluator = Evaluator::new(mesh, &planned, measure.eval)?;
+    if let Some(whole) = measure.whole {
+        evaluator = evaluator.part_of(whole);
+    }
     let views: Vec<OrthoView> = evaluation
         .iter()
         .map(|&w| evaluator.view(w))

@@ -35,6 +35,7 @@ fn placed(mesh: &Mesh, plan: &ViewPlan, params: &PlaceParams, threads: usize) ->
         closest: 6,
         goal_pixels: (0.002 * 128.0 * 128.0) as u32,
         entropy_size: 128,
+        whole: None,
     };
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -135,6 +136,7 @@ fn bad_parameters_are_errors_that_name_the_key() {
             closest: 6,
             goal_pixels: 131,
             entropy_size: 128,
+            whole: None,
         };
         let err = place(&mesh, &plan, &measure, &params).unwrap_err();
         assert!(err.to_string().contains(key), "{err}");

@@ -327,8 +327,17 @@ pub fn select(
     params: &SelectParams,
 ) -> Result<Selection, SelectError> {
     params.validate()?;
-    let evaluator = Evaluator::new(mesh, set, &params.eval_params())?;
-    let plan = MaskPlan::new(&evaluator, params.rule);
-    let masks = all_view_masks(&evaluator, &plan)?;
-    select_from_masks(&masks, params, set.maps.len())
+    select_with(&Evaluator::new(mesh, set, &params.eval_params())?, params)
+}
+
+/// [`select`] measured by `evaluator`, made with `params.eval_params()` (e.g. one that
+/// measures a part of a larger model, `Evaluator::part_of`).
+pub fn select_with(
+    evaluator: &Evaluator<'_>,
+    params: &SelectParams,
+) -> Result<Selection, SelectError> {
+    params.validate()?;
+    let plan = MaskPlan::new(evaluator, params.rule);
+    let masks = all_view_masks(evaluator, &plan)?;
+    select_from_masks(&masks, params, evaluator.set().maps.len())
 }

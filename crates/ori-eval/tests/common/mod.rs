@@ -27,6 +27,18 @@ pub fn bunny() -> &'static (Mesh, ReliefSet) {
     })
 }
 
+/// The bounding box `[min, max]` of a mesh's positions.
+pub fn bounds(mesh: &Mesh) -> [[f64; 3]; 2] {
+    let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
+    for p in &mesh.positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(f64::from(p[k]));
+            hi[k] = hi[k].max(f64::from(p[k]));
+        }
+    }
+    [lo, hi]
+}
+
 /// A mesh from positions and triangles, with +Z normals and one default material.
 pub fn mesh(positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>) -> Mesh {
     Mesh {

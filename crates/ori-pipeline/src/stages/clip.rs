@@ -1,17 +1,51 @@
 //! clip: the asset's mesh clipped to a box, the mesh of one hierarchy node. Its output is
 //! empty when nothing of the mesh is inside (the node is then dropped).
+//!
+//! A node's place, select and plt jobs measure it in its own pixels (`ori_eval::Whole`): their
+//! parameters carry the box ([`PartOf`]) and they read the asset's whole mesh as input
+//! [`WHOLE`].
 
 use ori_graph::{JobContext, StageError};
+use ori_mesh::Mesh;
 use serde::{Deserialize, Serialize};
 
-use super::{PipelineStage, ingest::MESH};
+use super::{PipelineStage, Slot, ingest::MESH};
+
+/// The asset's whole mesh (ingest's `mesh`), as the input of a node's measuring jobs.
+pub const WHOLE: Slot<Mesh> = Slot::new("whole");
+
+/// In the parameters of a hierarchy node's place, select and plt jobs: the box the node's mesh
+/// was clipped to (absent for a single ORI or a root, whose keys it leaves unchanged).
+pub type PartOf = Option<ClipParams>;
+
+/// The whole mesh of a job whose parameters say it measures a part (`None` otherwise).
+pub fn read_whole(part_of: &PartOf, job: &mut JobContext<'_>) -> Result<Option<Mesh>, StageError> {
+    part_of.as_ref().map(|_| WHOLE.read(job)).transpose()
+}
+
+/// The measure's view of a part: the whole mesh and the box.
+pub fn whole<'a>(part_of: &PartOf, mesh: Option<&'a Mesh>) -> Option<ori_eval::Whole<'a>> {
+    Some(ori_eval::Whole {
+        mesh: mesh?,
+        clip: part_of.as_ref().map(|c| [c.min, c.max])?,
+    })
+}
 
 /// The parameters of a clip job: the box the mesh is clipped to (the cell, inflated).
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClipParams {
     pub min: [f64; 3],
     pub max: [f64; 3],
+}
+
+impl ClipParams {
+    pub fn of(cell: &ori_hierarchy::Cell) -> ClipParams {
+        ClipParams {
+            min: cell.min,
+            max: cell.max,
+        }
+    }
 }
 
 pub struct Clip;

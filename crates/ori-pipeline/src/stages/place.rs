@@ -6,6 +6,7 @@ use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
 use serde::{Deserialize, Serialize};
 
+use super::clip::{PartOf, read_whole, whole};
 use super::{PipelineStage, ingest::MESH, views::PLAN};
 
 pub struct Place;
@@ -19,6 +20,8 @@ pub struct PlaceJob {
     pub bake: BakeParams,
     pub select: ori_select::SelectParams,
     pub item_buffer_size: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part_of: PartOf,
 }
 
 impl PipelineStage for Place {
@@ -29,6 +32,7 @@ impl PipelineStage for Place {
     fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let plan = PLAN.read(job)?;
+        let whole_mesh = read_whole(&params.part_of, job)?;
         let placed = crate::ori::place(
             &mesh,
             &plan,
@@ -36,6 +40,7 @@ impl PipelineStage for Place {
             &params.bake,
             &params.select,
             params.item_buffer_size,
+            whole(&params.part_of, whole_mesh.as_ref()),
         )
         .map_err(StageError::asset)?;
         PLAN.write(job, &placed.plan);

@@ -6,6 +6,7 @@ use ori_graph::{JobContext, StageError};
 use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
 
+use super::clip::{PartOf, read_whole, whole};
 use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH};
 
 /// The selection table and its statistics.
@@ -31,6 +32,8 @@ pub struct SelectJob {
     pub select: SelectParams,
     #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
     pub gpu: Option<GpuBackend>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part_of: PartOf,
 }
 
 /// Selection measured with the wgpu renderer on `device` (`--backend gpu`).
@@ -44,8 +47,9 @@ pub struct GpuBackend {
 }
 
 impl SelectJob {
-    pub fn new(select: &SelectParams, device: Option<&str>) -> SelectJob {
+    pub fn new(select: &SelectParams, device: Option<&str>, part_of: PartOf) -> SelectJob {
         SelectJob {
+            part_of,
             select: select.clone(),
             gpu: device.map(|d| GpuBackend {
                 backend: "gpu".to_string(),
@@ -66,12 +70,14 @@ impl PipelineStage for Select {
     fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let set = MAPS.read(job)?;
+        let whole_mesh = read_whole(&params.part_of, job)?;
+        let whole = whole(&params.part_of, whole_mesh.as_ref());
         let selection = if params.gpu.is_some() {
             crate::gpu_select::renderer()
-                .and_then(|r| crate::gpu_select::select(&mesh, &set, &params.select, r))
+                .and_then(|r| crate::gpu_select::select(&mesh, &set, &params.select, whole, r))
                 .map_err(|e| StageError::asset(format!("GPU selection: {e}")))?
         } else {
-            ori_select::select(&mesh, &set, &params.select).map_err(StageError::asset)?
+            crate::ori::select(&mesh, &set, &params.select, whole).map_err(StageError::asset)?
         };
         SELECTION.write(job, &selection);
         Ok(())
