@@ -263,9 +263,10 @@ impl<'a> Evaluator<'a> {
 
     /// Measure the mesh as a part of `whole` (a hierarchy node): the reference keeps only the
     /// pixels where the whole model's nearest surface lies inside the box the part was
-    /// clipped to; at the others the rest of the model is in front of the part.
-    pub fn part_of(mut self, whole: Whole<'a>) -> Evaluator<'a> {
-        self.whole = Some(part::WholeModel::new(whole));
+    /// clipped to; at the others the rest of the model is in front of the part. `None`: the
+    /// mesh is the whole model.
+    pub fn part_of(mut self, whole: Option<Whole<'a>>) -> Evaluator<'a> {
+        self.whole = whole.map(part::WholeModel::new);
         self
     }
 

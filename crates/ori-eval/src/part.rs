@@ -19,16 +19,20 @@ pub struct Whole<'a> {
 /// [`Whole`] with what drawing it needs.
 pub(crate) struct WholeModel<'a> {
     mesh: &'a Mesh,
-    clip: [[f64; 3]; 2],
+    /// The clip box grown by a millionth of its edge: points on its faces belong to the part
+    /// (its mesh was cut there).
+    own: [[f64; 3]; 2],
     alpha: Option<AlphaCut<'a>>,
     single_sided: Vec<bool>,
 }
 
 impl<'a> WholeModel<'a> {
     pub fn new(whole: Whole<'a>) -> WholeModel<'a> {
+        let [lo, hi] = whole.clip;
+        let slack = 1e-6 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         WholeModel {
             mesh: whole.mesh,
-            clip: whole.clip,
+            own: [lo.map(|c| c - slack), hi.map(|c| c + slack)],
             alpha: AlphaCut::new(whole.mesh),
             single_sided: whole.mesh.single_sided(),
         }
@@ -37,11 +41,8 @@ impl<'a> WholeModel<'a> {
     /// The pixels of `part` where the whole model's nearest surface lies outside the box.
     pub fn in_front(&self, view: &OrthoView, part: &Mask) -> Mask {
         let r = raster(self.mesh, self.alpha.as_ref(), &self.single_sided, view);
-        let [lo, hi] = self.clip;
-        let edge = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
-        // Points on the box's faces belong to the part: its mesh was cut there.
-        let slack = 1e-6 * edge;
-        let inside = |p: [f64; 3]| (0..3).all(|k| p[k] >= lo[k] - slack && p[k] <= hi[k] + slack);
+        let [lo, hi] = self.own;
+        let inside = |p: [f64; 3]| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]);
         let n = view.size as usize;
         let mut out = Mask::new(view.size);
         for i in part.ones() {

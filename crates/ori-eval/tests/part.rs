@@ -20,7 +20,7 @@ fn two_halves_share_out_the_whole_models_pixels() {
         .map(|(half, clip)| {
             Evaluator::new(half, set, &params)
                 .unwrap()
-                .part_of(Whole { mesh, clip })
+                .part_of(Some(Whole { mesh, clip }))
         })
         .collect();
     let plain: Vec<Evaluator<'_>> = halves

@@ -85,11 +85,7 @@ pub fn evaluator<'a>(
     select: &SelectParams,
     whole: Option<Whole<'a>>,
 ) -> Result<Evaluator<'a>, ori_eval::EvalError> {
-    let evaluator = Evaluator::new(mesh, set, &select.eval_params())?;
-    Ok(match whole {
-        Some(whole) => evaluator.part_of(whole),
-        None => evaluator,
-    })
+    Ok(Evaluator::new(mesh, set, &select.eval_params())?.part_of(whole))
 }
 
 /// Step 5a: the runtime rule (each view draws its nearest entry's subset) measured at the

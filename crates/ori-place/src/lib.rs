@@ -167,10 +167,7 @@ pub fn place(
     let mut candidates = plan.directions.clone();
     candidates.extend(&evaluation);
     let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
-    let mut evaluator = Evaluator::new(mesh, &planned, measure.eval)?;
-    if let Some(whole) = measure.whole {
-        evaluator = evaluator.part_of(whole);
-    }
+    let evaluator = Evaluator::new(mesh, &planned, measure.eval)?.part_of(measure.whole);
     let views: Vec<OrthoView> = evaluation
         .iter()
         .map(|&w| evaluator.view(w))

@@ -18,17 +18,35 @@ pub const WHOLE: Slot<Mesh> = Slot::new("whole");
 /// was clipped to (absent for a single ORI or a root, whose keys it leaves unchanged).
 pub type PartOf = Option<ClipParams>;
 
-/// The whole mesh of a job whose parameters say it measures a part (`None` otherwise).
-pub fn read_whole(part_of: &PartOf, job: &mut JobContext<'_>) -> Result<Option<Mesh>, StageError> {
-    part_of.as_ref().map(|_| WHOLE.read(job)).transpose()
+/// The whole mesh and clip box of a job that measures a part.
+pub struct WholeMesh {
+    mesh: Mesh,
+    clip: ClipParams,
 }
 
-/// The measure's view of a part: the whole mesh and the box.
-pub fn whole<'a>(part_of: &PartOf, mesh: Option<&'a Mesh>) -> Option<ori_eval::Whole<'a>> {
-    Some(ori_eval::Whole {
-        mesh: mesh?,
-        clip: part_of.as_ref().map(|c| [c.min, c.max])?,
-    })
+impl WholeMesh {
+    /// Read by a job whose parameters say it measures a part (`None` otherwise).
+    pub fn read(
+        part_of: PartOf,
+        job: &mut JobContext<'_>,
+    ) -> Result<Option<WholeMesh>, StageError> {
+        part_of
+            .map(|clip| {
+                Ok(WholeMesh {
+                    mesh: WHOLE.read(job)?,
+                    clip,
+                })
+            })
+            .transpose()
+    }
+
+    /// As the measure takes it.
+    pub fn whole(&self) -> ori_eval::Whole<'_> {
+        ori_eval::Whole {
+            mesh: &self.mesh,
+            clip: [self.clip.min, self.clip.max],
+        }
+    }
 }
 
 /// The parameters of a clip job: the box the mesh is clipped to (the cell, inflated).

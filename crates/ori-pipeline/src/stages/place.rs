@@ -6,7 +6,7 @@ use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
 use serde::{Deserialize, Serialize};
 
-use super::clip::{PartOf, read_whole, whole};
+use super::clip::{PartOf, WholeMesh};
 use super::{PipelineStage, ingest::MESH, views::PLAN};
 
 pub struct Place;
@@ -32,7 +32,7 @@ impl PipelineStage for Place {
     fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let plan = PLAN.read(job)?;
-        let whole_mesh = read_whole(&params.part_of, job)?;
+        let whole = WholeMesh::read(params.part_of, job)?;
         let placed = crate::ori::place(
             &mesh,
             &plan,
@@ -40,7 +40,7 @@ impl PipelineStage for Place {
             &params.bake,
             &params.select,
             params.item_buffer_size,
-            whole(&params.part_of, whole_mesh.as_ref()),
+            whole.as_ref().map(WholeMesh::whole),
         )
         .map_err(StageError::asset)?;
         PLAN.write(job, &placed.plan);

@@ -7,7 +7,7 @@ use ori_plt::Plt;
 use ori_select::{HeldOut, SelectParams};
 use serde::{Deserialize, Serialize};
 
-use super::clip::{PartOf, read_whole, whole};
+use super::clip::{PartOf, WholeMesh};
 use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH, select::SELECTION};
 
 /// The measured PLT.
@@ -58,14 +58,14 @@ impl PipelineStage for PltStage {
         let mesh = MESH.read(job)?;
         let set = MAPS.read(job)?;
         let selection = SELECTION.read(job)?;
-        let whole_mesh = read_whole(&params.part_of, job)?;
+        let whole = WholeMesh::read(params.part_of, job)?;
         let held_out = crate::ori::held_out(
             &mesh,
             &set,
             &selection,
             &params.select,
             params.held_out_seed,
-            whole(&params.part_of, whole_mesh.as_ref()),
+            whole.as_ref().map(WholeMesh::whole),
         )
         .map_err(StageError::asset)?;
         PLT.write(job, &crate::ori::plt(&held_out));

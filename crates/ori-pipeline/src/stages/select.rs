@@ -6,7 +6,7 @@ use ori_graph::{JobContext, StageError};
 use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
 
-use super::clip::{PartOf, read_whole, whole};
+use super::clip::{PartOf, WholeMesh};
 use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH};
 
 /// The selection table and its statistics.
@@ -70,8 +70,8 @@ impl PipelineStage for Select {
     fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
         let set = MAPS.read(job)?;
-        let whole_mesh = read_whole(&params.part_of, job)?;
-        let whole = whole(&params.part_of, whole_mesh.as_ref());
+        let whole = WholeMesh::read(params.part_of, job)?;
+        let whole = whole.as_ref().map(WholeMesh::whole);
         let selection = if params.gpu.is_some() {
             crate::gpu_select::renderer()
                 .and_then(|r| crate::gpu_select::select(&mesh, &set, &params.select, whole, r))
