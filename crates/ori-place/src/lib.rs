@@ -10,6 +10,11 @@
 //! selection uses) and moves impostors while that lowers the worst view's error.
 //!
 //! # The search
+//! - **Views.** The 320 evaluation directions (the selection table's), then the 162 corners
+//!   of the triangles their entries serve (`ori_views::EvaluationRegions::corners`): the
+//!   directions farthest from every table entry, where the runtime draws a view with
+//!   impostors chosen for another. A view the table's directions alone judged drawable can
+//!   miss a gap that only shows between them.
 //! - **Candidates.** An impostor may move to one of the 320 evaluation directions. A
 //!   candidate is baked, with the asset's bake parameters, the first time a move to it is
 //!   tried (a map does not depend on which others are baked, and most candidates are never
@@ -26,9 +31,13 @@
 //!   impostor among its `K` closest may move to any free candidate within
 //!   [`PlaceParams::step_deg`] of where it is. The move that leaves the lowest (worst error,
 //!   total error) wins, compared in that order; ties: the earlier impostor, then the earlier
-//!   candidate. It is made only if it lowers that pair.
+//!   candidate. It is made only if it lowers that pair. A move that leaves any view above
+//!   the current worst error cannot, so each move is first measured in the views of highest
+//!   current error, in batches of 1, 2, 4, ... views, and dropped at the first view it
+//!   pushes above it: its masks in the other views are never computed. The moves that
+//!   pass every view are scored in full; the choice is the one of scoring every move.
 //! - **The end.** The search stops when the worst view's error is within the selection's
-//!   goal (every view can then be drawn within the goal), when no move helps, or after
+//!   goal (every view measured can then be drawn within the goal), when no move helps, or after
 //!   [`PlaceParams::max_moves`] moves.
 //!
 //! Only moves near the worst view are tried: that keeps the number of masks, which is what
@@ -38,7 +47,8 @@
 //! Bakes and masks are computed in parallel and collected in order; every comparison and
 //! choice is made sequentially on integer pixel counts. The placed directions are bit-
 //! identical for any thread count, and on every machine (directions are copied from
-//! `ori_views::evaluation_directions`, never computed here).
+//! `ori_views::evaluation_directions`, never computed here; the views' directions come from
+//! `ori_views` too).
 
 use ori_bake::{BakeError, BakeParams};
 use ori_eval::{EvalError, EvalParams, Evaluator, Mask};
@@ -154,6 +164,25 @@ pub fn place(
     measure: &Measure<'_>,
     params: &PlaceParams,
 ) -> Result<Placement, PlaceError> {
+    place_scored(mesh, plan, measure, params, Scoring::Screened)
+}
+
+/// How the moves of a step are scored: `Screened` is what [`place`] does; `Every` measures
+/// every move in every view, the definition the screening must match.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scoring {
+    Screened,
+    #[cfg_attr(not(test), allow(dead_code))]
+    Every,
+}
+
+fn place_scored(
+    mesh: &Mesh,
+    plan: &ViewPlan,
+    measure: &Measure<'_>,
+    params: &PlaceParams,
+    scoring: Scoring,
+) -> Result<Placement, PlaceError> {
     params.validate()?;
     if params.max_moves == 0 || plan.directions.is_empty() {
         return Ok(Placement {
@@ -163,12 +192,15 @@ pub fn place(
             worst_after: 0,
         });
     }
-    let evaluation = ori_views::evaluation_directions();
+    let table = ori_views::evaluation_directions();
     let mut candidates = plan.directions.clone();
-    candidates.extend(&evaluation);
+    candidates.extend(&table);
+    // The table's views, then the corners of the triangles their entries serve.
+    let mut measured = table;
+    measured.extend(ori_views::evaluation_regions().corners());
     let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
     let evaluator = Evaluator::new(mesh, &planned, measure.eval)?.part_of(measure.whole);
-    let views: Vec<OrthoView> = evaluation
+    let views: Vec<OrthoView> = measured
         .iter()
         .map(|&w| evaluator.view(w))
         .collect::<Result<_, _>>()?;
@@ -183,16 +215,17 @@ pub fn place(
         mesh,
         measure,
         candidates: &candidates,
-        evaluation: &evaluation,
+        measured: &measured,
         baked,
         views: &views,
         references: &references,
-        masks: vec![None; evaluation.len() * candidates.len()],
+        masks: vec![None; measured.len() * candidates.len()],
     };
 
     let step_cos = ori_math::sin_cos(params.step_deg * (std::f64::consts::PI / 180.0)).1;
     let mut chosen: Vec<usize> = (0..plan.directions.len()).collect();
-    search.fill(std::slice::from_ref(&chosen))?;
+    let all: Vec<usize> = (0..views.len()).collect();
+    search.fill(&[&chosen], &all)?;
     let mut errors = search.errors(&chosen);
     let worst_before = errors.iter().copied().max().unwrap_or(0);
     let mut current = score(&errors);
@@ -217,21 +250,30 @@ pub fn place(
                     })
             })
             .collect();
-        search.fill(&trials)?;
-        let scored: Vec<(u32, u64)> = trials
+        let survivors = match scoring {
+            Scoring::Screened => search.screen(&trials, &errors, current.0)?,
+            Scoring::Every => {
+                let sets: Vec<&[usize]> = trials.iter().map(|t| &t[..]).collect();
+                search.fill(&sets, &all)?;
+                (0..trials.len()).collect()
+            }
+        };
+        let scored: Vec<(u32, u64)> = survivors
             .par_iter()
-            .map(|t| score(&search.errors(t)))
+            .map(|&k| score(&search.errors(&trials[k])))
             .collect();
         // Sequential, in trial order: the first of equal scores wins.
-        let mut best: Option<usize> = None;
-        for (k, s) in scored.iter().enumerate() {
-            if *s < best.map_or(current, |b| scored[b]) {
-                best = Some(k);
+        let mut best: Option<(usize, (u32, u64))> = None;
+        for (&k, &s) in survivors.iter().zip(&scored) {
+            if s < best.map_or(current, |b| b.1) {
+                best = Some((k, s));
             }
         }
-        let Some(best) = best else { break };
+        let Some((best, best_score)) = best else {
+            break;
+        };
         chosen.clone_from(&trials[best]);
-        current = scored[best];
+        current = best_score;
         errors = search.errors(&chosen);
         moves += 1;
     }
@@ -279,12 +321,13 @@ struct Search<'a> {
     measure: &'a Measure<'a>,
     /// The planned directions, then the evaluation directions.
     candidates: &'a [[f64; 3]],
-    evaluation: &'a [[f64; 3]],
+    /// The directions of the views measured (see [`place`]).
+    measured: &'a [[f64; 3]],
     /// Each candidate's map, baked the first time a mask of it is needed (its map does not
     /// depend on which others are baked).
     baked: Vec<Option<ReliefMap>>,
     views: &'a [OrthoView],
-    /// The mesh's coverage of each evaluation view.
+    /// The mesh's coverage of each view.
     references: &'a [Mask],
     /// `masks[view * candidates.len() + candidate]`, within the view's reference.
     masks: Vec<Option<Mask>>,
@@ -294,7 +337,7 @@ impl Search<'_> {
     /// The candidates a view draws from when impostor `i` is at candidate `chosen[i]`: the
     /// `closest` facing ones, closest first, ties in impostor order (as the selection).
     fn drawn(&self, chosen: &[usize], view: usize) -> Vec<usize> {
-        let w = self.evaluation[view];
+        let w = self.measured[view];
         let mut facing: Vec<(f64, usize)> = chosen
             .iter()
             .map(|&c| (dot(self.candidates[c], w), c))
@@ -310,12 +353,12 @@ impl Search<'_> {
         view * self.candidates.len() + candidate
     }
 
-    /// Compute the masks `sets` need that are not kept yet (in parallel, stored in order),
-    /// baking the candidates they draw first.
-    fn fill(&mut self, sets: &[Vec<usize>]) -> Result<(), PlaceError> {
+    /// Compute the masks `sets` need in `views` that are not kept yet (in parallel, stored in
+    /// order), baking the candidates they draw first.
+    fn fill(&mut self, sets: &[&[usize]], views: &[usize]) -> Result<(), PlaceError> {
         let mut missing = vec![false; self.masks.len()];
         for chosen in sets {
-            for view in 0..self.views.len() {
+            for &view in views {
                 for c in self.drawn(chosen, view) {
                     let k = self.slot(view, c);
                     missing[k] = self.masks[k].is_none();
@@ -372,15 +415,90 @@ impl Search<'_> {
     /// masks must have been filled.
     fn errors(&self, chosen: &[usize]) -> Vec<u32> {
         (0..self.views.len())
-            .map(|view| {
-                let reference = &self.references[view];
-                let mut union = Mask::new(reference.size());
-                for c in self.drawn(chosen, view) {
-                    let mask = self.masks[self.slot(view, c)].as_ref();
-                    union.union_with(mask.expect("masks filled before errors"));
-                }
-                reference.count_minus(&union)
-            })
+            .map(|view| self.error(chosen, view))
             .collect()
+    }
+
+    fn error(&self, chosen: &[usize], view: usize) -> u32 {
+        let reference = &self.references[view];
+        let mut union = Mask::new(reference.size());
+        for c in self.drawn(chosen, view) {
+            let mask = self.masks[self.slot(view, c)].as_ref();
+            union.union_with(mask.expect("masks filled before errors"));
+        }
+        reference.count_minus(&union)
+    }
+
+    /// The trials (indices into `trials`, in order) whose error stays within `worst` in every
+    /// view, with all their masks filled. A trial with a view above `worst` cannot lower the
+    /// score, so views are measured in order of their current `errors`, highest first, in
+    /// growing batches, and a trial is dropped at its first view above `worst`, before its
+    /// masks in the other views are computed.
+    fn screen(
+        &mut self,
+        trials: &[Vec<usize>],
+        errors: &[u32],
+        worst: u32,
+    ) -> Result<Vec<usize>, PlaceError> {
+        let mut order: Vec<usize> = (0..self.views.len()).collect();
+        order.sort_by_key(|&v| (std::cmp::Reverse(errors[v]), v));
+        let mut alive: Vec<usize> = (0..trials.len()).collect();
+        let mut start = 0;
+        let mut batch = 1;
+        while start < order.len() && !alive.is_empty() {
+            let views = &order[start..(start + batch).min(order.len())];
+            let sets: Vec<&[usize]> = alive.iter().map(|&k| &trials[k][..]).collect();
+            self.fill(&sets, views)?;
+            let within: Vec<bool> = alive
+                .par_iter()
+                .map(|&k| views.iter().all(|&v| self.error(&trials[k], v) <= worst))
+                .collect();
+            let mut within = within.into_iter();
+            alive.retain(|_| within.next().expect("one flag per trial"));
+            start += views.len();
+            batch *= 2;
+        }
+        Ok(alive)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn screening_moves_chooses_what_scoring_every_move_chooses() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/models/stanford/bunny/bunny_npm_lowres.obj"
+        );
+        let mesh = ori_mesh::load_file(path.as_ref(), &Default::default())
+            .expect("bunny")
+            .mesh;
+        let plan = ori_views::plan_views(&mesh, &Default::default()).expect("plan");
+        let bake = BakeParams {
+            resolution: 64,
+            ..Default::default()
+        };
+        let eval = EvalParams {
+            s0: 96,
+            ..Default::default()
+        };
+        let measure = Measure {
+            bake: &bake,
+            eval: &eval,
+            closest: 6,
+            goal_pixels: 4,
+            entropy_size: 96,
+            whole: None,
+        };
+        let params = PlaceParams {
+            max_moves: 6,
+            ..Default::default()
+        };
+        let screened = place_scored(&mesh, &plan, &measure, &params, Scoring::Screened).unwrap();
+        let every = place_scored(&mesh, &plan, &measure, &params, Scoring::Every).unwrap();
+        assert!(screened.moves >= 2, "{} moves", screened.moves);
+        assert_eq!(screened, every);
     }
 }

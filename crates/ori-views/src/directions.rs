@@ -152,6 +152,25 @@ pub struct EvaluationRegions {
     pub of_direction: Vec<[usize; 6]>,
 }
 
+impl EvaluationRegions {
+    /// The samples that are a corner of some triangle, in sample order: the directions
+    /// farthest from every evaluation direction, where the runtime's nearest entry serves a
+    /// view least well.
+    pub fn corners(&self) -> Vec<[f64; 3]> {
+        let mut corner = vec![false; self.samples.len()];
+        for samples in &self.of_direction {
+            for &s in &samples[..3] {
+                corner[s] = true;
+            }
+        }
+        self.samples
+            .iter()
+            .zip(corner)
+            .filter_map(|(&p, c)| c.then_some(p))
+            .collect()
+    }
+}
+
 /// [`EvaluationRegions`] of [`evaluation_directions`] (162 corners and 480 midpoints).
 pub fn evaluation_regions() -> EvaluationRegions {
     let mut samples = Vec::new();
@@ -265,7 +284,12 @@ mod tests {
         assert_eq!(regions.of_direction.len(), directions.len());
         let triangles = geodesic_triangles(2);
         let held_out = held_out_directions(DEFAULT_HELD_OUT_SEED);
+        let corners = regions.corners();
+        assert_eq!(corners.len(), 162);
         for (i, samples) in regions.of_direction.iter().enumerate() {
+            for s in &samples[..3] {
+                assert!(corners.contains(&regions.samples[*s]));
+            }
             for &s in samples {
                 let p = regions.samples[s];
                 // On the triangle's boundary, and nearer to its own direction than to any
