@@ -135,10 +135,10 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
     }
     let range = leafless / root.plt.pixels;
     eprintln!("no leaf mesh up to {leafless:.0} px: {range:.2} x the root's PLT");
-    // Measured 1.39 (464 px over a root PLT of 334), with placement measuring the corners
-    // between table directions; 1.68 (499 px over 298) when it measured the table's
-    // directions only; 1.00 when what a node's cuts expose counted against it.
-    assert!(range >= 1.25, "{range:.2} x the root's PLT");
+    // Measured 1.80 (602 px over a root PLT of 334) with children's goals halved
+    // (`goal_scale`), 1.39 with the root's goals; 1.00 when what a node's cuts expose
+    // counted against it.
+    assert!(range >= 1.6, "{range:.2} x the root's PLT");
 }
 
 /// The leaf meshes a runtime supplies: the model clipped to each leaf's cell.

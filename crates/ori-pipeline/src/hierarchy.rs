@@ -28,6 +28,9 @@ pub struct HierarchyParams {
     pub target_px: f64,
     /// A child's mesh is clipped to its cell grown by this fraction of the parent's edge.
     pub inflate: f64,
+    /// A node at depth `d` is selected and placed with the asset's coverage-error goals times
+    /// `goal_scale^d` (0.05 to 1).
+    pub goal_scale: f64,
 }
 
 impl Default for HierarchyParams {
@@ -38,6 +41,7 @@ impl Default for HierarchyParams {
             max_depth: 2,
             target_px: 256.0,
             inflate: 0.01,
+            goal_scale: 0.5,
         }
     }
 }
@@ -63,7 +67,30 @@ impl HierarchyParams {
                 self.inflate
             ));
         }
+        if !(self.goal_scale.is_finite() && (0.05..=1.0).contains(&self.goal_scale)) {
+            return Err(format!(
+                "hierarchy.goal_scale = {}: expected 0.05 to 1",
+                self.goal_scale
+            ));
+        }
         Ok(())
+    }
+
+    /// The selection parameters of a node at `depth`: the asset's, with both coverage-error
+    /// goals scaled by `goal_scale^depth`. The traversal draws a node only where the object is
+    /// larger than its parent fits, and children held to their parent's goals measure below
+    /// it in their own pixels, which ends the range where the parent's ends.
+    pub fn node_select(
+        &self,
+        select: &ori_select::SelectParams,
+        depth: u32,
+    ) -> ori_select::SelectParams {
+        let scale = (0..depth).fold(1.0, |s, _| s * self.goal_scale);
+        ori_select::SelectParams {
+            goal_percent: select.goal_percent * scale,
+            edge_goal_percent: select.edge_goal_percent * scale,
+            ..select.clone()
+        }
     }
 }
 
@@ -115,4 +142,30 @@ pub fn children_to_try(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn node_goals_scale_with_depth_and_the_root_keeps_the_assets() {
+        let params = HierarchyParams::default();
+        let select = ori_select::SelectParams::default();
+        assert_eq!(params.node_select(&select, 0), select);
+        let deep = params.node_select(&select, 2);
+        assert_eq!(deep.goal_percent, select.goal_percent * 0.25);
+        assert_eq!(deep.edge_goal_percent, select.edge_goal_percent * 0.25);
+        assert_eq!((deep.rule, deep.s0), (select.rule, select.s0));
+        assert!(deep.validate().is_ok());
+        for bad in [0.0, 0.01, 1.5, f64::NAN] {
+            let e = HierarchyParams {
+                goal_scale: bad,
+                ..params.clone()
+            }
+            .validate()
+            .unwrap_err();
+            assert!(e.contains("hierarchy.goal_scale"), "{e}");
+        }
+    }
 }

@@ -167,8 +167,10 @@ impl Planner {
         planned: &PlannedAsset,
         mesh: Job<M>,
         part: Option<(Job<Ingest>, ClipParams)>,
+        depth: u32,
     ) -> Chain {
         let (asset, params) = (&planned.asset, &planned.params);
+        let goals = params.hierarchy.node_select(&params.select, depth);
         let part_of = part.map(|(_, clip)| clip);
         // The measuring jobs' inputs: the mesh, `more`, and the whole mesh of a part.
         let measuring = |more: Vec<(&'static str, Input)>| {
@@ -183,7 +185,7 @@ impl Planner {
         let place_job = PlaceJob {
             place: params.place.clone(),
             bake: params.bake.clone(),
-            select: params.select.clone(),
+            select: goals.clone(),
             item_buffer_size: params.views.item_buffer_size,
             part_of,
         };
@@ -191,11 +193,11 @@ impl Planner {
         let bake = self.add::<Bake>(label, &params.bake, vec![MESH.from(mesh), PLAN.from(place)]);
         let select = self.add::<Select>(
             label,
-            &SelectJob::new(&params.select, params.select_device.as_deref(), part_of),
+            &SelectJob::new(&goals, params.select_device.as_deref(), part_of),
             measuring(vec![MAPS.from(bake)]),
         );
         let plt_job = PltJob {
-            select: params.select.clone(),
+            select: goals,
             held_out_seed: params.plt.held_out_seed,
             part_of,
         };
@@ -250,7 +252,7 @@ impl Planner {
     pub fn asset(&mut self, planned: &PlannedAsset) -> AssetJobs {
         let asset = &planned.asset;
         let ingest = self.ingest(planned);
-        let root = self.chain(&asset.name, planned, ingest, None);
+        let root = self.chain(&asset.name, planned, ingest, None, 0);
         let mut nodes = Vec::new();
         let mut measured = vec![(ingest.id, root.plt.id)];
         let mut package = root.package.map(|j| j.id);
@@ -261,7 +263,7 @@ impl Planner {
                 let cell = node.clip.as_ref().unwrap_or(&node.cell);
                 let clip = self.clip(&label, ingest, cell);
                 let part = Some((ingest, ClipParams::of(cell)));
-                let chain = self.chain(&label, planned, clip, part);
+                let chain = self.chain(&label, planned, clip, part, node.depth);
                 nodes.push(clip.id);
                 nodes.extend(chain.jobs());
                 measured.push((clip.id, chain.plt.id));
