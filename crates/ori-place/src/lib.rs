@@ -258,23 +258,24 @@ fn place_scored(
                 (0..trials.len()).collect()
             }
         };
-        let scored: Vec<(u32, u64)> = survivors
+        let mut measured: Vec<Vec<u32>> = survivors
             .par_iter()
-            .map(|&k| score(&search.errors(&trials[k])))
+            .map(|&k| search.errors(&trials[k]))
             .collect();
         // Sequential, in trial order: the first of equal scores wins.
         let mut best: Option<(usize, (u32, u64))> = None;
-        for (&k, &s) in survivors.iter().zip(&scored) {
+        for (i, e) in measured.iter().enumerate() {
+            let s = score(e);
             if s < best.map_or(current, |b| b.1) {
-                best = Some((k, s));
+                best = Some((i, s));
             }
         }
         let Some((best, best_score)) = best else {
             break;
         };
-        chosen.clone_from(&trials[best]);
+        chosen.clone_from(&trials[survivors[best]]);
         current = best_score;
-        errors = search.errors(&chosen);
+        errors = measured.swap_remove(best);
         moves += 1;
     }
 
@@ -356,16 +357,21 @@ impl Search<'_> {
     /// Compute the masks `sets` need in `views` that are not kept yet (in parallel, stored in
     /// order), baking the candidates they draw first.
     fn fill(&mut self, sets: &[&[usize]], views: &[usize]) -> Result<(), PlaceError> {
-        let mut missing = vec![false; self.masks.len()];
+        // Called once per batch of views while screening: collect the slots, not a flag per
+        // (view, candidate) pair of the whole search.
+        let mut todo: Vec<usize> = Vec::new();
         for chosen in sets {
             for &view in views {
                 for c in self.drawn(chosen, view) {
                     let k = self.slot(view, c);
-                    missing[k] = self.masks[k].is_none();
+                    if self.masks[k].is_none() {
+                        todo.push(k);
+                    }
                 }
             }
         }
-        let todo: Vec<usize> = (0..missing.len()).filter(|&k| missing[k]).collect();
+        todo.sort_unstable();
+        todo.dedup();
         if todo.is_empty() {
             return Ok(());
         }
