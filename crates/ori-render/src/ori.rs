@@ -247,7 +247,8 @@ fn upload(
         }
         let level = &ktx.levels()[0];
         let texels = if decoded {
-            decode(ktx.format(), level, n).map_err(|e| RenderError::Package(e.to_string()))?
+            ori_texture::decode::to_bytes(ktx.format(), level, n)
+                .map_err(|e| RenderError::Package(e.to_string()))?
         } else {
             level.clone()
         };
@@ -305,7 +306,7 @@ pub fn column_tops(package: &Package, n: u32) -> Result<(u32, Vec<u32>), RenderE
             .levels()
             .first()
             .ok_or_else(|| RenderError::Package(format!("impostor {i}: no depth level")))?;
-        let depth = decode(ktx.format(), level, n as u32)
+        let depth = ori_texture::decode::to_bytes(ktx.format(), level, n as u32)
             .map_err(|e| RenderError::Package(format!("impostor {i}: {e}")))?;
         if depth.len() != n * n {
             return Err(RenderError::Package(format!(
@@ -321,24 +322,4 @@ pub fn column_tops(package: &Package, n: u32) -> Result<(u32, Vec<u32>), RenderE
         }
     }
     Ok((cells as u32, tops))
-}
-
-/// A BC level decoded to 8-bit texels: R (BC4), RG (BC5) or RGBA (BC1, sRGB kept encoded).
-fn decode(format: VkFormat, level: &[u8], n: u32) -> Result<Vec<u8>, ori_texture::TextureError> {
-    use ori_texture::decode::to_u8;
-    Ok(match format {
-        VkFormat::Bc4Unorm => ori_texture::decode_bc4(level, n, n)?
-            .into_iter()
-            .map(to_u8)
-            .collect(),
-        VkFormat::Bc5Unorm => ori_texture::decode_bc5(level, n, n)?
-            .into_iter()
-            .flat_map(|t| t.map(to_u8))
-            .collect(),
-        VkFormat::Bc1RgbSrgb | VkFormat::Bc1RgbUnorm => ori_texture::decode_bc1(level, n, n)?
-            .into_iter()
-            .flat_map(|t| [to_u8(t[0]), to_u8(t[1]), to_u8(t[2]), 255])
-            .collect(),
-        VkFormat::R8Unorm => level.to_vec(),
-    })
 }

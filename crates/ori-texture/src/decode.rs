@@ -156,6 +156,25 @@ pub fn decode_bc5(data: &[u8], width: u32, height: u32) -> Result<Vec<[f32; 2]>,
     })
 }
 
+/// An `n` x `n` level decoded to 8-bit texels, row-major: R (R8, BC4), RG (BC5) or RGBA (BC1,
+/// sRGB kept encoded, alpha 255). Each value is [`to_u8`] of the decoded one, so a BC4 depth
+/// map gives back the codes a runtime reads (`docs/RUNTIME.md`, "Depth codes").
+pub fn to_bytes(format: crate::VkFormat, level: &[u8], n: u32) -> Result<Vec<u8>, TextureError> {
+    use crate::VkFormat;
+    Ok(match format {
+        VkFormat::Bc4Unorm => decode_bc4(level, n, n)?.into_iter().map(to_u8).collect(),
+        VkFormat::Bc5Unorm => decode_bc5(level, n, n)?
+            .into_iter()
+            .flat_map(|t| t.map(to_u8))
+            .collect(),
+        VkFormat::Bc1RgbSrgb | VkFormat::Bc1RgbUnorm => decode_bc1(level, n, n)?
+            .into_iter()
+            .flat_map(|t| [to_u8(t[0]), to_u8(t[1]), to_u8(t[2]), 255])
+            .collect(),
+        VkFormat::R8Unorm => level.to_vec(),
+    })
+}
+
 /// Rounds a `[0, 1]` value to the nearest byte (for writing decoded images out).
 pub fn to_u8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8

@@ -60,7 +60,9 @@ pub struct Package;
 
 impl PipelineStage for Package {
     const NAME: &'static str = "package";
-    const VERSION: u32 = 1;
+    /// 2: the occupied volume of the depth as shipped (BC4 decoded); `measured_by` names the
+    /// held-out directions.
+    const VERSION: u32 = 2;
     type Params = PackageParams;
 
     fn run(&self, params: PackageParams, job: &mut JobContext<'_>) -> Result<(), StageError> {
@@ -71,7 +73,15 @@ impl PipelineStage for Package {
         let selection = SELECTION.read(job)?;
         let plt = PLT.read(job)?;
         let textures = TEXTURES.read(job)?;
-        let manifest = manifest(&params, source.to_hex(), &set, &selection, &plt);
+        let manifest = manifest(
+            &params,
+            source.to_hex(),
+            &set,
+            &selection,
+            &plt,
+            &textures.0,
+        )
+        .map_err(StageError::asset)?;
         let bytes = ori_package::write(&manifest, &textures.0).map_err(StageError::asset)?;
         PACKAGE.write(job, &PackageBytes(bytes));
         Ok(())
@@ -121,7 +131,8 @@ fn manifest(
     set: &ReliefSet,
     selection: &ori_select::Selection,
     plt: &ori_plt::Plt,
-) -> Manifest {
+    textures: &[ori_package::ImpostorTextures],
+) -> Result<Manifest, String> {
     let march = ori_package::RecordedMarch::of_params(&params.pipeline);
     let placeholder = |format| TextureRef {
         format,
@@ -132,27 +143,36 @@ fn manifest(
     let impostors = set
         .maps
         .iter()
-        .map(|map| {
+        .zip(textures)
+        .enumerate()
+        .map(|(i, (map, shipped))| {
             let v = &map.view;
-            ori_package::Impostor {
+            // The occupied volume of the depth codes a runtime reads: with BC4 they are not
+            // the baked ones, and a volume that misses a decoded texel would cut rays short.
+            let ktx = ori_texture::Ktx2::from_bytes(&shipped.depth)
+                .map_err(|e| format!("impostor {i}'s depth texture: {e}"))?;
+            let level = ktx.levels().first().cloned().unwrap_or_default();
+            let depth = ori_texture::decode::to_bytes(ktx.format(), &level, map.size())
+                .map_err(|e| format!("impostor {i}'s depth texture: {e}"))?;
+            Ok(ori_package::Impostor {
                 direction: v.frame.d,
                 frame: [v.frame.u, v.frame.v, v.frame.d],
                 center: v.center,
                 half_size: v.half_size,
                 near: v.near,
                 far: v.far,
-                occupied: ori_eval::march::occupied_volume(&map.depth, map.size() as usize),
+                occupied: ori_eval::march::occupied_volume(&depth, map.size() as usize),
                 depth: placeholder(params.depth.texture_format()),
                 normal: placeholder(TextureFormat::Bc5),
                 albedo: placeholder(TextureFormat::Bc1Srgb),
-            }
+            })
         })
-        .collect();
+        .collect::<Result<_, String>>()?;
     let (at_least, pixels) = match plt.value() {
         ori_plt::PltValue::AtLeast(p) => (true, p),
         ori_plt::PltValue::Pixels(p) => (false, p),
     };
-    Manifest {
+    Ok(Manifest {
         format_version: ori_package::FORMAT_VERSION,
         tool: params.tool.clone(),
         source: Source {
@@ -184,8 +204,9 @@ fn manifest(
             at_least,
             recommended_resolution: plt.recommended_resolution(),
             measured_by: format!(
-                "{} ({} linear + {} binary steps, wall threshold {}), {} x {} \
-                 orthographic views of the 320 directions",
+                "{} ({} linear + {} binary steps, wall threshold {}), {s0} x {s0} \
+                 orthographic views: the selection at the 320 table directions, the PLT by \
+                 the cpu evaluator at the {} held-out directions of seed {}",
                 match &params.measured_on {
                     Some(device) => format!("wgpu renderer on {device}"),
                     None => "cpu evaluator".to_string(),
@@ -193,12 +214,13 @@ fn manifest(
                 shown(march.linear_steps),
                 shown(march.binary_steps),
                 shown(march.wall_threshold),
-                plt.s0,
-                plt.s0
+                ori_views::held_out_directions(0).len(),
+                shown(params.pipeline.pointer("/plt/held_out_seed").cloned()),
+                s0 = plt.s0,
             ),
         },
         params: params.pipeline.clone(),
-    }
+    })
 }
 
 /// A recorded number as the manifest's JSON writes it (`0.25`, `1.0`), or `null`.
@@ -250,7 +272,7 @@ pub(crate) fn measuring_package(
         pipeline: serde_json::to_value(MeasuredWith { select }).expect("parameters serialise"),
         measured_on: None,
     };
-    let manifest = manifest(&params, "0".repeat(64), set, &selection, &plt);
+    let manifest = manifest(&params, "0".repeat(64), set, &selection, &plt, &textures)?;
     let bytes = ori_package::write(&manifest, &textures).map_err(|e| e.to_string())?;
     ori_package::read(&bytes).map_err(|e| e.to_string())
 }
