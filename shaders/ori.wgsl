@@ -11,7 +11,7 @@
 //   2. extent: the part `[z_in, z_out]` of the ray inside the occupied relief volume,
 //      narrowed to the columns of the map's column grid the ray crosses (`narrow`);
 //   3. lookup: nearest texel, `textureLoad` of `floor(x, y)`, 255 (empty) outside the map;
-//   4. linear search: `linear_steps` samples `z_in + k * (z_out - z_in) / L`, the first with
+//   4. linear search: `linear_steps` samples `z_in + ((z_out - z_in) / L) * k`, the first with
 //      `z >= code` ends it;
 //   5. binary search: `binary_steps` halvings of the bracket `(lo, hi)`;
 //   6. vertical wall: discard when exactly one of `code(lo)`, `code(hi)` is empty, or they

@@ -133,7 +133,8 @@ pub struct EvalParams {
     pub binary_steps: u32,
     /// Vertical-wall threshold: the largest depth step between the two samples bracketing a
     /// hit that is still a surface, as a fraction of the impostor's depth range (default
-    /// 0.25, i.e. 63.5 depth codes; values above 1.004 switch the test off).
+    /// 0.25, i.e. 63.5 depth codes; from 1 on no depth step is a wall, while a bracket that
+    /// starts over an empty texel always is).
     pub wall_threshold: f64,
     /// Fragment priority (default option 3, closest direction).
     pub priority: Priority,

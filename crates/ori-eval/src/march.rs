@@ -33,9 +33,9 @@
 //! 3. **Lookup.** Nearest texel: the sample at `(x, y)` reads the depth code of texel
 //!    `(floor x, floor y)`, 255 (empty) outside `[0, N)`. Empty is deeper than any ray depth,
 //!    so a ray always passes over an empty texel.
-//! 4. **Linear search.** `L` samples (`L = 16`) at `z_k = z_in + k * (z_out - z_in) / L`,
-//!    `k = 1..=L`; the first with `z_k >= code(z_k)` is below the surface. None: no fragment.
-//!    The bracket is `(lo, hi) = (z_{k-1}, z_k)`, with `z_0 = z_in`.
+//! 4. **Linear search.** `L` samples (`L = 16`) at `z_k = z_in + ((z_out - z_in) / L) * k`
+//!    (in that order, in `f32`), `k = 1..=L`; the first with `z_k >= code(z_k)` is below the
+//!    surface. None: no fragment. The bracket is `(lo, hi) = (z_{k-1}, z_k)`, with `z_0 = z_in`.
 //! 5. **Binary search.** `B` times (`B = 7`): `mid = (lo + hi) / 2`; `hi = mid` if
 //!    `mid >= code(mid)`, else `lo = mid`.
 //! 6. **Vertical wall.** `a = code(lo)` and `b = code(hi)` are the stored depths of the two
