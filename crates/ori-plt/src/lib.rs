@@ -1,7 +1,8 @@
 //! Projected Length Threshold (ORI paper, 3.4; `GUIDE.md`, "PLT").
 //!
-//! - [`estimate`]: GC(s0) = the largest coverage error d_i(s0) over the 320 evaluation
-//!   directions (with the subsets the selection table draws), and PLT = s0^2 / GC(s0) pixels:
+//! - [`estimate`]: GC(s0) = the largest coverage error d_i(s0) over the views measured (the
+//!   pipeline gives it the held-out directions, each drawn with the subset of its nearest table
+//!   entry, `docs/RUNTIME.md`), and PLT = s0^2 / GC(s0) pixels:
 //!   the largest on-screen size at which the ORI makes on average at most one coverage error
 //!   per pixel row. GC(s0) = 0 gives no finite estimate: the PLT is then reported as *at
 //!   least* s0^2 ([`PltValue::AtLeast`]).

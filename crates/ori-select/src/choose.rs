@@ -62,44 +62,47 @@ pub struct Goals {
 /// choice's `missed` is the error in `own`.
 pub fn choose_region(own: &ViewMasks, region: &[&ViewMasks], rule: Rule, goals: Goals) -> Choice {
     let k = own.candidates.len().min(rule.m() as usize);
-    let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
     let views: Vec<Measured<'_>> = std::iter::once(own)
         .chain(region.iter().copied())
         .map(|v| Measured::of(v, own))
         .collect();
-    let chosen = match rule {
-        Rule::Closest(_) => all,
-        Rule::Best(_) => {
-            // Subsets ordered by (over a goal, error, size, sorted impostor indices): the
-            // rule's order within a size and, when no size reaches the goals, over all sizes.
-            let key = |subset: u32| {
-                let missed: Vec<u32> = views.iter().map(|v| v.missed(subset)).collect();
-                let over = missed[0] > goals.own || missed[1..].iter().any(|&m| m > goals.edge);
-                let worst = missed.iter().copied().max().unwrap_or(0);
-                let total: u64 = missed.iter().map(|&m| u64::from(m)).sum();
-                let mut sorted = indices_of(own, subset);
-                sorted.sort_unstable();
-                (over, worst, total, subset.count_ones(), sorted, subset)
-            };
-            let mut overall = None;
-            let mut reached = None;
-            for size in 1..=k as u32 {
-                let best = (1..=all)
-                    .filter(|s| s.count_ones() == size)
-                    .map(key)
-                    .min()
-                    .expect("a subset of every size up to k");
-                if !best.0 {
-                    reached = Some(best);
-                    break;
-                }
-                if overall.as_ref().is_none_or(|o| best < *o) {
-                    overall = Some(best);
-                }
-            }
-            reached.or(overall).map_or(0, |b| b.5)
-        }
+    if let Rule::Closest(_) = rule {
+        // Up to MAX_CLOSEST candidates: more than a subset's bits hold.
+        return Choice {
+            impostors: own.candidates[..k].iter().map(|c| c.0).collect(),
+            missed: views[0].missed_where(|bit| bit < k),
+        };
+    }
+    // best:M has M <= MAX_BEST, so a subset is a bit set in a u32. Subsets are ordered by
+    // (over a goal, error, size, sorted impostor indices): the rule's order within a size
+    // and, when no size reaches the goals, over all sizes.
+    let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
+    let key = |subset: u32| {
+        let missed: Vec<u32> = views.iter().map(|v| v.missed(subset)).collect();
+        let over = missed[0] > goals.own || missed[1..].iter().any(|&m| m > goals.edge);
+        let worst = missed.iter().copied().max().unwrap_or(0);
+        let total: u64 = missed.iter().map(|&m| u64::from(m)).sum();
+        let mut sorted = indices_of(own, subset);
+        sorted.sort_unstable();
+        (over, worst, total, subset.count_ones(), sorted, subset)
     };
+    let mut overall = None;
+    let mut reached = None;
+    for size in 1..=k as u32 {
+        let best = (1..=all)
+            .filter(|s| s.count_ones() == size)
+            .map(key)
+            .min()
+            .expect("a subset of every size up to k");
+        if !best.0 {
+            reached = Some(best);
+            break;
+        }
+        if overall.as_ref().is_none_or(|o| best < *o) {
+            overall = Some(best);
+        }
+    }
+    let chosen = reached.or(overall).map_or(0, |b| b.5);
     Choice {
         impostors: indices_of(own, chosen),
         missed: views[0].missed(chosen),
@@ -134,11 +137,16 @@ impl<'a> Measured<'a> {
 
     /// Coverage error of the union of the candidates in bit set `subset`.
     fn missed(&self, subset: u32) -> u32 {
+        self.missed_where(|bit| subset >> bit & 1 != 0)
+    }
+
+    /// Coverage error of the union of the candidates whose position `chosen` accepts.
+    fn missed_where(&self, chosen: impl Fn(usize) -> bool) -> u32 {
         let members: Vec<&[u64]> = self
             .candidates
             .iter()
             .enumerate()
-            .filter(|(bit, _)| subset >> bit & 1 != 0)
+            .filter(|(bit, _)| chosen(*bit))
             .filter_map(|(_, m)| *m)
             .collect();
         self.reference

@@ -174,8 +174,11 @@ impl Selection {
         &self.entries[self.nearest(w)]
     }
 
-    /// The index of the entry [`Selection::lookup`] returns.
+    /// The index of the entry [`Selection::lookup`] returns. `w` is made unit first (as a
+    /// renderer's view direction is), so a direction a few ulps off unit length looks up the
+    /// entry its unit vector does.
     pub fn nearest(&self, w: [f64; 3]) -> usize {
+        let w = ori_raster::normalize(w);
         // Called once per view the held-out measure draws: the directions are made once.
         static DIRECTIONS: std::sync::OnceLock<Vec<[f64; 3]>> = std::sync::OnceLock::new();
         let dirs = DIRECTIONS.get_or_init(ori_views::evaluation_directions);

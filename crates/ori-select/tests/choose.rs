@@ -138,3 +138,17 @@ fn a_region_is_met_at_its_worst_view() {
         choice(&[7, 3], 1)
     );
 }
+
+#[test]
+fn closest_draws_more_candidates_than_a_subset_has_bits() {
+    // 40 facing impostors (a dense set seen by closest:255): all drawn, closest first, none
+    // lost to the 32 bits of a best:M subset.
+    let pixels: Vec<Vec<usize>> = (0..40).map(|i| vec![i % 10]).collect();
+    let candidates: Vec<(usize, &[usize])> = (0..40).map(|i| (100 + i, &pixels[i][..])).collect();
+    let vm = masks(&candidates);
+    let all: Vec<usize> = (100..140).collect();
+    assert_eq!(choose(&vm, Rule::Closest(255), 0), choice(&all, 0));
+    // The first 9 leave pixel 9 uncovered.
+    let nine: Vec<usize> = (100..109).collect();
+    assert_eq!(choose(&vm, Rule::Closest(9), 0), choice(&nine, 1));
+}
