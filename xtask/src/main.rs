@@ -4,6 +4,7 @@
 mod bench;
 mod bench_remote;
 mod compress;
+mod conformance;
 mod eval_table;
 mod nginx;
 mod preview;
@@ -40,6 +41,8 @@ enum Command {
     },
     /// Compress a PNG into a KTX2 texture (BC1 albedo, BC4, BC5 normals).
     CompressTexture(compress::Args),
+    /// Check the runtime's conformance data (docs/conformance) against the CPU evaluator.
+    Conformance(conformance::Args),
     /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
     EvalTable(eval_table::Args),
     /// Draw a package with the wgpu runtime renderer beside its mesh and the difference.
@@ -171,6 +174,7 @@ fn main() -> ExitCode {
         ),
         Command::Bench { which } => bench::run(which),
         Command::CompressTexture(args) => compress::run(args),
+        Command::Conformance(args) => conformance::run(args),
         Command::EvalTable(args) => eval_table::run(args),
         Command::Verify { dir } => verify(&dir),
         Command::Preview(args) => preview::run(args),
