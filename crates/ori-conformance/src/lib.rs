@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use ori_eval::{Evaluator, Mask};
 use ori_mesh::Mesh;
-use ori_package::Package;
+use ori_package::{Package, SelectionEntry};
 use ori_raster::{Frame, OrthoView};
 use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
@@ -112,7 +112,7 @@ pub struct Expected {
     /// The selection table recomputed from the package's decoded textures and the model: one
     /// entry per table direction. Equal to the package's own table when its depth is exact
     /// (R8); the pipeline selects before compressing, so with BC4 depth it may differ.
-    pub table: Vec<TableEntry>,
+    pub table: Vec<SelectionEntry>,
     /// The held-out measure of the package.
     pub held_out: HeldOutFigures,
 }
@@ -121,7 +121,7 @@ pub struct Expected {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ViewResult {
-    /// Where the direction comes from: `table I`, `held-out I` or `axis`.
+    /// Where the direction comes from: `table I`, `held-out I`, `axis +Y` or `axis -Y`.
     pub label: String,
     /// The view direction `w`, unit, from the object towards the viewer.
     pub direction: [f64; 3],
@@ -150,15 +150,6 @@ pub struct ViewResult {
 pub struct ImpostorMask {
     pub impostor: usize,
     pub mask: Vec<String>,
-}
-
-/// One selection-table entry: impostors in drawing order and the coverage error at the
-/// entry's own direction.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TableEntry {
-    pub impostors: Vec<u16>,
-    pub missed: u32,
 }
 
 /// The held-out measure: every held-out direction drawn with the impostors of the package's
@@ -326,8 +317,8 @@ impl Loaded {
         for i in HELD_OUT_VIEWS {
             directions.push((format!("held-out {i}"), held_out[i]));
         }
-        for w in AXIS_VIEWS {
-            directions.push(("axis".into(), w));
+        for (w, name) in AXIS_VIEWS.into_iter().zip(["+Y", "-Y"]) {
+            directions.push((format!("axis {name}"), w));
         }
         let views = directions
             .into_iter()
@@ -349,7 +340,7 @@ impl Loaded {
             table: recomputed
                 .entries
                 .iter()
-                .map(|e| TableEntry {
+                .map(|e| SelectionEntry {
                     impostors: e.impostors.clone(),
                     missed: e.missed,
                 })
@@ -508,20 +499,6 @@ pub fn differences(expected: &Expected, found: &Expected, limit: usize) -> Vec<S
         lines.push(format!("... and {more} more"));
     }
     lines
-}
-
-/// The package's own selection table, as [`TableEntry`]s.
-pub fn package_table(package: &Package) -> Vec<TableEntry> {
-    package
-        .manifest
-        .selection
-        .entries
-        .iter()
-        .map(|e| TableEntry {
-            impostors: e.impostors.clone(),
-            missed: e.missed,
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -109,7 +109,7 @@ pub const DEFAULT_HELD_OUT_SEED: u64 = 1;
 
 /// Directions that no stage chooses anything at, for measuring quality where the runtime
 /// draws: the 1280 of `icosahedron_directions(3)` (none is a table direction, but a quarter
-/// of them, each table triangle's middle child, lie within 0.005 degrees of one), then
+/// of them, each table triangle's middle child, lie within 0.0051 degrees of one), then
 /// [`HELD_OUT_RANDOM`] directions uniform on the sphere drawn from `seed` (SplitMix64, then
 /// `z` uniform in `[-1, 1)` and the azimuth uniform, with `ori_math::sin_cos` and `sqrt`, so
 /// the set is bit-identical on every machine).
