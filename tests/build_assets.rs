@@ -306,3 +306,46 @@ fn placement_moves_impostors_the_same_way_for_any_thread_count() {
     p.config("[place]\nmax_moves = 0\n[bake]\nresolution = 64\n");
     assert_ne!(one, build("2", "off"));
 }
+
+#[test]
+fn a_bc4_package_carries_the_table_and_plt_of_the_depth_it_ships() {
+    // BC4 depth is lossy: the table and the PLT must be those of the decoded codes a runtime
+    // reads, not of the baked ones.
+    let p = Project::new(&["bunny"]);
+    p.config("[bake]\nresolution = 32\n[compress]\ndepth = \"bc4\"\n");
+    ok(&p.build(&[]));
+    let package =
+        ori_package::read(&fs::read(p.path("out/bunny/bunny_npm_lowres.ori")).unwrap()).unwrap();
+    let set = ori_report::relief_set(&package).unwrap();
+    let mesh = ori_mesh::load_file(
+        &p.path("assets/bunny/bunny_npm_lowres.obj"),
+        &Default::default(),
+    )
+    .unwrap()
+    .mesh;
+    let select: ori_select::SelectParams =
+        serde_json::from_value(package.manifest.params["select"].clone()).unwrap();
+    let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params()).unwrap();
+    let selection = ori_select::select_with(&evaluator, &select).unwrap();
+    let stored = &package.manifest.selection.entries;
+    let differing = (0..320)
+        .filter(|&i| {
+            let e = &selection.entries[i];
+            (&e.impostors, e.missed) != (&stored[i].impostors, stored[i].missed)
+        })
+        .count();
+    assert_eq!(
+        differing, 0,
+        "{differing} of 320 entries differ from the decoded depth's"
+    );
+    let held_out = ori_select::held_out(
+        &evaluator,
+        &ori_views::held_out_directions(ori_views::DEFAULT_HELD_OUT_SEED),
+        &|w| {
+            let entry = selection.lookup(w);
+            entry.impostors.iter().map(|&i| usize::from(i)).collect()
+        },
+    )
+    .unwrap();
+    assert_eq!(package.manifest.plt.gc, held_out.worst_missed());
+}

@@ -110,8 +110,8 @@ pub struct Expected {
     /// Views at table, held-out and axis directions.
     pub views: Vec<ViewResult>,
     /// The selection table recomputed from the package's decoded textures and the model: one
-    /// entry per table direction. Equal to the package's own table when its depth is exact
-    /// (R8); the pipeline selects before compressing, so with BC4 depth it may differ.
+    /// entry per table direction, equal to the package's own table (the pipeline selects on
+    /// the depth it ships).
     pub table: Vec<SelectionEntry>,
     /// The held-out measure of the package.
     pub held_out: HeldOutFigures,
@@ -291,8 +291,8 @@ impl Loaded {
         let evaluator =
             Evaluator::new(&self.mesh, &set, &params.eval_params()).map_err(|e| e.to_string())?;
         let recomputed = ori_select::select_with(&evaluator, &params).map_err(|e| e.to_string())?;
-        // The runtime draws the package's own table (measured before any lossy depth
-        // compression, so with BC4 depth it may differ from the one recomputed here).
+        // The runtime draws the package's own table (the tests hold it equal to the
+        // recomputed one; the views and the held-out measure use what ships).
         let selection = Selection {
             entries: self
                 .package

@@ -9,7 +9,7 @@ use crate::discover::Asset;
 use crate::hierarchy::PlannedTree;
 use crate::stages::bake::{Bake, MAPS};
 use crate::stages::clip::{Clip, ClipParams, WHOLE};
-use crate::stages::compress::{Compress, TEXTURES};
+use crate::stages::compress::{Compress, TEXTURES, lossy_depth};
 use crate::stages::hierarchy::{Hierarchy, TreeParams, node_input};
 use crate::stages::ingest::{Ingest, IngestJob, MESH, SOURCE};
 use crate::stages::package::{PACKAGE, Package, PackageParams, tool};
@@ -193,13 +193,19 @@ impl Planner {
         let bake = self.add::<Bake>(label, &params.bake, vec![MESH.from(mesh), PLAN.from(place)]);
         let select = self.add::<Select>(
             label,
-            &SelectJob::new(&goals, params.select_device.as_deref(), part_of),
+            &SelectJob::new(
+                &goals,
+                params.select_device.as_deref(),
+                part_of,
+                &params.compress,
+            ),
             measuring(vec![MAPS.from(bake)]),
         );
         let plt_job = PltJob {
             select: goals,
             held_out_seed: params.plt.held_out_seed,
             part_of,
+            shipped_depth: lossy_depth(&params.compress),
         };
         let plt = self.add::<PltStage>(
             label,

@@ -4,7 +4,7 @@
 use ori_artifact::{DecodeError, Layout};
 use ori_graph::{JobContext, StageError};
 use ori_package::{ImpostorTextures, TextureFormat};
-use ori_relief::{EMPTY_DEPTH, ReliefMap};
+use ori_relief::{EMPTY_DEPTH, ReliefMap, ReliefSet};
 use ori_texture::{Ktx2, Quality, RgbaImage, VkFormat};
 use serde::{Deserialize, Serialize};
 
@@ -60,16 +60,50 @@ impl DepthFormat {
     }
 }
 
+/// The compression a package's depth goes through when it is lossy (BC4), for the stages that
+/// measure what a runtime will read (`select`, `plt`); `None` for exact R8 depth, so that
+/// those jobs' keys stay what they were.
+pub(crate) fn lossy_depth(params: &CompressParams) -> Option<CompressParams> {
+    (params.depth == DepthFormat::Bc4).then_some(*params)
+}
+
+/// `set` with each map's depth codes as a runtime decodes them from the package
+/// (`docs/RUNTIME.md`, "Depth codes"): the same encoder as [`compress_map`], then decoded.
+/// Normal and albedo are kept (coverage does not read them).
+pub(crate) fn as_shipped(
+    mut set: ReliefSet,
+    lossy: Option<&CompressParams>,
+) -> Result<ReliefSet, String> {
+    let Some(params) = lossy else {
+        return Ok(set);
+    };
+    for (i, map) in set.maps.iter_mut().enumerate() {
+        let n = map.size();
+        let encoded = match params.depth {
+            DepthFormat::R8 => continue,
+            DepthFormat::Bc4 => ori_texture::encode_bc4(&map.depth, n, n, quality(params))
+                .map_err(|e| format!("map {i}'s depth: {e}"))?,
+        };
+        map.depth = ori_texture::decode::to_bytes(VkFormat::Bc4Unorm, &encoded, n)
+            .map_err(|e| format!("map {i}'s depth: {e}"))?;
+    }
+    Ok(set)
+}
+
+fn quality(params: &CompressParams) -> Quality {
+    match params.quality {
+        CompressQuality::High => Quality::High,
+        CompressQuality::Fast => Quality::Fast,
+    }
+}
+
 /// The three textures of one relief map, as KTX2 files.
 pub(crate) fn compress_map(
     map: &ReliefMap,
     params: &CompressParams,
 ) -> Result<ImpostorTextures, String> {
     let n = map.size();
-    let quality = match params.quality {
-        CompressQuality::High => Quality::High,
-        CompressQuality::Fast => Quality::Fast,
-    };
+    let quality = quality(params);
     let err = |e: ori_texture::TextureError| e.to_string();
     let ktx = |format: VkFormat, data: Vec<u8>| -> Result<Vec<u8>, String> {
         Ok(Ktx2::new(format, n, n, vec![data]).map_err(err)?.to_bytes())

@@ -8,6 +8,7 @@ use ori_select::{HeldOut, SelectParams};
 use serde::{Deserialize, Serialize};
 
 use super::clip::{PartOf, WholeMesh};
+use super::compress::{CompressParams, as_shipped};
 use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH, select::SELECTION};
 
 /// The measured PLT.
@@ -46,6 +47,9 @@ pub struct PltJob {
     pub held_out_seed: u64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part_of: PartOf,
+    /// Lossy depth compression of the package: the PLT is measured on the depth it ships.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shipped_depth: Option<CompressParams>,
 }
 
 impl PipelineStage for PltStage {
@@ -56,7 +60,8 @@ impl PipelineStage for PltStage {
 
     fn run(&self, params: PltJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
-        let set = MAPS.read(job)?;
+        let set = as_shipped(MAPS.read(job)?, params.shipped_depth.as_ref())
+            .map_err(StageError::asset)?;
         let selection = SELECTION.read(job)?;
         let whole = WholeMesh::read(params.part_of, job)?;
         let held_out = crate::ori::held_out(

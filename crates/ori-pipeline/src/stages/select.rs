@@ -7,6 +7,7 @@ use ori_select::{SelectParams, Selection};
 use serde::{Deserialize, Serialize};
 
 use super::clip::{PartOf, WholeMesh};
+use super::compress::{CompressParams, as_shipped, lossy_depth};
 use super::{Artifact, PipelineStage, Slot, bake::MAPS, ingest::MESH};
 
 /// The selection table and its statistics.
@@ -34,6 +35,10 @@ pub struct SelectJob {
     pub gpu: Option<GpuBackend>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part_of: PartOf,
+    /// Lossy depth compression of the package: selection measures the depth it ships
+    /// (`compress::lossy_depth`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shipped_depth: Option<CompressParams>,
 }
 
 /// Selection measured with the wgpu renderer on `device` (`--backend gpu`).
@@ -47,9 +52,15 @@ pub struct GpuBackend {
 }
 
 impl SelectJob {
-    pub fn new(select: &SelectParams, device: Option<&str>, part_of: PartOf) -> SelectJob {
+    pub fn new(
+        select: &SelectParams,
+        device: Option<&str>,
+        part_of: PartOf,
+        compress: &CompressParams,
+    ) -> SelectJob {
         SelectJob {
             part_of,
+            shipped_depth: lossy_depth(compress),
             select: select.clone(),
             gpu: device.map(|d| GpuBackend {
                 backend: "gpu".to_string(),
@@ -64,12 +75,14 @@ impl PipelineStage for Select {
     /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
     /// 3: single-sided materials are culled from behind in the reference.
     /// 4: `best:M` subsets are chosen over each entry's region of directions.
+    /// (BC4 packages: measured on the decoded depth, `shipped_depth`, a key of its own.)
     const VERSION: u32 = 4;
     type Params = SelectJob;
 
     fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
         let mesh = MESH.read(job)?;
-        let set = MAPS.read(job)?;
+        let set = as_shipped(MAPS.read(job)?, params.shipped_depth.as_ref())
+            .map_err(StageError::asset)?;
         let whole = WholeMesh::read(params.part_of, job)?;
         let whole = whole.as_ref().map(WholeMesh::whole);
         let selection = if params.gpu.is_some() {
