@@ -5,7 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use ori_conformance::{CASES_DIR, Case, Directions, RUNTIME_DOC, differences, documented_version};
+use ori_conformance::{
+    CASES_DIR, Case, Directions, Expected, RUNTIME_DOC, differences, documented_version,
+};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -88,14 +90,14 @@ fn check_all(root: &Path, write: bool) -> Result<bool, String> {
             );
             continue;
         }
-        let changed_results = recorded.as_ref().is_some_and(|r| {
-            let mut same_version = found.clone();
-            same_version.runtime_version = r.runtime_version;
-            *r != same_version
+        // New results need a new version; a new version alone may be recorded.
+        let allowed = recorded.as_ref().is_none_or(|r| {
+            version > r.runtime_version
+                || Expected {
+                    runtime_version: r.runtime_version,
+                    ..found.clone()
+                } == *r
         });
-        let allowed = recorded
-            .as_ref()
-            .is_none_or(|r| !changed_results || version > r.runtime_version);
         if write && allowed {
             let json = serde_json::to_string_pretty(&found).map_err(|e| e.to_string())?;
             let path = case.expected_path();

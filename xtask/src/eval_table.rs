@@ -186,7 +186,7 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
     let held_out =
         ori_pipeline::ori::held_out(&mesh, set, &selection, params, args.held_out_seed, None)
             .map_err(|e| e.to_string())?;
-    let between = held_out.first(1280);
+    let between = held_out.first(ori_views::HELD_OUT_REGULAR);
     println!(
         "{} between the table's directions (1280 views, each drawn with its nearest entry's \
          subset): coverage error max {:.3}%, avg {:.3}%",

@@ -69,7 +69,7 @@ impl Directions {
     pub fn compute() -> Directions {
         let seed = ori_views::DEFAULT_HELD_OUT_SEED;
         let held_out = ori_views::held_out_directions(seed);
-        let regular = ori_views::icosahedron_directions(3).len();
+        let regular = ori_views::HELD_OUT_REGULAR;
         Directions {
             table: ori_views::evaluation_directions(),
             held_out_seed: seed,
@@ -278,11 +278,6 @@ impl Loaded {
         Ok(params)
     }
 
-    /// The evaluation view of the model along `w`.
-    pub fn view(&self, w: [f64; 3], s0: u32) -> Result<OrthoView, String> {
-        ori_eval::eval_view(&self.mesh, w, s0).map_err(|e| e.to_string())
-    }
-
     /// Everything [`Expected`] holds, computed by the CPU evaluator from the package's
     /// decoded textures, for runtime version `version`.
     pub fn compute(&self, version: u32) -> Result<Expected, String> {
@@ -292,20 +287,10 @@ impl Loaded {
             Evaluator::new(&self.mesh, &set, &params.eval_params()).map_err(|e| e.to_string())?;
         let recomputed = ori_select::select_with(&evaluator, &params).map_err(|e| e.to_string())?;
         // The runtime draws the package's own table (the tests hold it equal to the
-        // recomputed one; the views and the held-out measure use what ships).
-        let selection = Selection {
-            entries: self
-                .package
-                .manifest
-                .selection
-                .entries
-                .iter()
-                .map(|e| ori_select::Entry {
-                    impostors: e.impostors.clone(),
-                    missed: e.missed,
-                })
-                .collect(),
-            ..recomputed.clone()
+        // recomputed one): the views and the held-out measure use what ships.
+        let table = Table {
+            lookup: &recomputed,
+            entries: &self.package.manifest.selection.entries,
         };
 
         let table_directions = ori_views::evaluation_directions();
@@ -322,16 +307,16 @@ impl Loaded {
         }
         let views = directions
             .into_iter()
-            .map(|(label, w)| view_result(&evaluator, &selection, params.rule.m(), label, w))
+            .map(|(label, w)| view_result(&evaluator, &table, params.rule.m(), label, w))
             .collect::<Result<_, _>>()?;
 
         let subset = |w: [f64; 3]| {
-            let entry = selection.lookup(w);
+            let entry = &table.entries[table.lookup.nearest(w)];
             entry.impostors.iter().map(|&i| usize::from(i)).collect()
         };
         let measured =
             ori_select::held_out(&evaluator, &held_out, &subset).map_err(|e| e.to_string())?;
-        let random = ori_views::icosahedron_directions(3).len();
+        let random = ori_views::HELD_OUT_REGULAR;
         Ok(Expected {
             runtime_version: version,
             s0: params.s0,
@@ -357,9 +342,16 @@ impl Loaded {
     }
 }
 
+/// The package's table, looked up as [`Selection::nearest`] does (the directions depend only
+/// on the entry count).
+struct Table<'a> {
+    lookup: &'a Selection,
+    entries: &'a [SelectionEntry],
+}
+
 fn view_result(
     evaluator: &Evaluator<'_>,
-    selection: &Selection,
+    table: &Table<'_>,
     m: u32,
     label: String,
     w: [f64; 3],
@@ -375,8 +367,8 @@ fn view_result(
             mask: mask_rows(&evaluator.impostor_mask(&view, i, None)),
         })
         .collect();
-    let entry = selection.nearest(w);
-    let drawn = selection.entries[entry].impostors.clone();
+    let entry = table.lookup.nearest(w);
+    let drawn = table.entries[entry].impostors.clone();
     let mut missed = mesh.clone();
     for &i in &drawn {
         missed.remove(&evaluator.impostor_mask(&view, usize::from(i), None));

@@ -101,7 +101,9 @@ pub fn axis_directions() -> [[f64; 3]; 6] {
     ]
 }
 
-/// How many seeded random directions [`held_out_directions`] adds to the 1280 regular ones.
+/// How many regular directions [`held_out_directions`] starts with (`icosahedron_directions(3)`).
+pub const HELD_OUT_REGULAR: usize = REGULAR_COUNTS[4];
+/// How many seeded random directions [`held_out_directions`] adds to the regular ones.
 pub const HELD_OUT_RANDOM: usize = 2000;
 
 /// The seed of the held-out directions unless one is asked for.

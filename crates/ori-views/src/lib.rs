@@ -29,7 +29,7 @@ pub use coverage::{
     SamplingCoverage, sampling_coverage, sampling_coverage_with_visible, visible_surface,
 };
 pub use directions::{
-    DEFAULT_HELD_OUT_SEED, EvaluationRegions, HELD_OUT_RANDOM, axis_directions,
+    DEFAULT_HELD_OUT_SEED, EvaluationRegions, HELD_OUT_RANDOM, HELD_OUT_REGULAR, axis_directions,
     evaluation_directions, evaluation_regions, held_out_directions, icosahedron_directions,
 };
 pub use entropy::viewpoint_entropy;

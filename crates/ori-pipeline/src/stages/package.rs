@@ -151,8 +151,8 @@ fn manifest(
             // the baked ones, and a volume that misses a decoded texel would cut rays short.
             let ktx = ori_texture::Ktx2::from_bytes(&shipped.depth)
                 .map_err(|e| format!("impostor {i}'s depth texture: {e}"))?;
-            let level = ktx.levels().first().cloned().unwrap_or_default();
-            let depth = ori_texture::decode::to_bytes(ktx.format(), &level, map.size())
+            let level = ktx.levels().first().map_or(&[][..], Vec::as_slice);
+            let depth = ori_texture::decode::to_bytes(ktx.format(), level, map.size())
                 .map_err(|e| format!("impostor {i}'s depth texture: {e}"))?;
             Ok(ori_package::Impostor {
                 direction: v.frame.d,
@@ -214,7 +214,7 @@ fn manifest(
                 shown(march.linear_steps),
                 shown(march.binary_steps),
                 shown(march.wall_threshold),
-                ori_views::held_out_directions(0).len(),
+                ori_views::HELD_OUT_REGULAR + ori_views::HELD_OUT_RANDOM,
                 shown(params.pipeline.pointer("/plt/held_out_seed").cloned()),
                 s0 = plt.s0,
             ),
