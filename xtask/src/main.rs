@@ -3,6 +3,7 @@
 
 mod bench;
 mod bench_remote;
+mod compare;
 mod compress;
 mod conformance;
 mod eval_table;
@@ -39,6 +40,9 @@ enum Command {
         #[command(subcommand)]
         which: bench::Bench,
     },
+    /// Bake every rival impostor technique and the ORI at one byte budget and compare them at
+    /// the held-out directions.
+    Compare(compare::Args),
     /// Compress a PNG into a KTX2 texture (BC1 albedo, BC4, BC5 normals).
     CompressTexture(compress::Args),
     /// Check the runtime's conformance data (docs/conformance) against the CPU evaluator.
@@ -174,6 +178,7 @@ fn main() -> ExitCode {
         ),
         Command::Bench { which } => bench::run(which),
         Command::CompressTexture(args) => compress::run(args),
+        Command::Compare(args) => compare::run(args),
         Command::Conformance(args) => conformance::run(args),
         Command::EvalTable(args) => eval_table::run(args),
         Command::Verify { dir } => verify(&dir),

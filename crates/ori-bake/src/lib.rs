@@ -102,6 +102,35 @@ pub fn bake(
     params: &BakeParams,
 ) -> Result<ReliefSet, BakeError> {
     params.validate()?;
+    bake_valid(mesh, directions, params)
+}
+
+/// [`bake`] at any resolution from 8 to 8192 texels, for maps that never become a package's
+/// textures (the rival techniques of `ori-rivals`), which need no power of two.
+pub fn bake_any_resolution(
+    mesh: &Mesh,
+    directions: &[[f64; 3]],
+    params: &BakeParams,
+) -> Result<ReliefSet, BakeError> {
+    if !(8..=8192).contains(&params.resolution) {
+        return Err(BakeError::Params(format!(
+            "resolution {} must be 8 to 8192 texels",
+            params.resolution
+        )));
+    }
+    BakeParams {
+        resolution: params.resolution.next_power_of_two(),
+        ..params.clone()
+    }
+    .validate()?;
+    bake_valid(mesh, directions, params)
+}
+
+fn bake_valid(
+    mesh: &Mesh,
+    directions: &[[f64; 3]],
+    params: &BakeParams,
+) -> Result<ReliefSet, BakeError> {
     if directions
         .iter()
         .any(|d| !d.iter().all(|c| c.is_finite()) || d.iter().all(|&c| c == 0.0))

@@ -108,6 +108,14 @@ pub use part::Whole;
 pub use reference::eval_view;
 pub use render::{Layer, NO_SOURCE, Render};
 
+/// The full render of any mesh through `view` (what [`Evaluator::render_mesh`] draws for a
+/// whole model), for drawing another mesh, such as a simplified one, in the evaluation view
+/// of the original.
+pub fn render_mesh(mesh: &Mesh, view: &OrthoView) -> Result<Render, EvalError> {
+    let alpha = reference::AlphaCut::new(mesh);
+    reference::render(mesh, alpha.as_ref(), &mesh.single_sided(), view)
+}
+
 /// Which fragment wins where several impostors draw the same pixel (ORI paper, 3.3).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Priority {

@@ -38,7 +38,8 @@ impl Render {
         self.source[i] = NO_SOURCE;
     }
 
-    pub(crate) fn empty(size: u32) -> Render {
+    /// A `size` x `size` render with nothing drawn.
+    pub fn empty(size: u32) -> Render {
         let n = size as usize * size as usize;
         Render {
             size,

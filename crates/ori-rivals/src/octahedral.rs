@@ -1,0 +1,273 @@
+//! Octahedral impostors as engines draw them today (Unreal's ImpostorBaker, Amplify
+//! Impostors, Godot's octahedral impostors): an N x N grid of frames whose directions are the
+//! grid points of an octahedral map of the sphere (or of the upper hemisphere), each frame an
+//! orthographic image with depth. A view draws one quad facing the camera through the
+//! bounding sphere's centre; each pixel blends the three frames of the grid triangle that
+//! holds the view direction (barycentric weights), reading each frame at the pixel's point on
+//! the quad moved once along the view ray to the depth that frame stores there (the per-frame
+//! depth offset for parallax). The blended coverage is alpha-tested at one half.
+
+use ori_bake::BakeParams;
+use ori_eval::Render;
+use ori_mesh::Mesh;
+use ori_raster::{OrthoView, dot};
+use ori_relief::ReliefMap;
+
+use crate::billboard::{
+    PixelBox, hit_plane, pixel_origin, surface_height, texel_at, window_pixels, world_normal,
+};
+use crate::{Drawn, Primitive, Rival, RivalError, Technique, relief_bytes, within_budget};
+
+/// Which directions the frames cover.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sphere {
+    /// All directions (`octahedral`).
+    Full,
+    /// Directions with `y >= 0` (`hemi-octahedral`, for objects never seen from below).
+    Upper,
+}
+
+/// Sign with `sign(0) = 1`, so that the map is defined everywhere.
+fn sign(x: f64) -> f64 {
+    if x < 0.0 { -1.0 } else { 1.0 }
+}
+
+impl Sphere {
+    /// The point in `[-1, 1]^2` of unit direction `w` (+Y up). Below the horizon the upper
+    /// hemisphere's map uses the horizontal direction above `w`.
+    pub fn encode(self, w: [f64; 3]) -> [f64; 2] {
+        let [x, y, z] = w;
+        match self {
+            Sphere::Full => {
+                let s = x.abs() + y.abs() + z.abs();
+                let (a, b) = (x / s, z / s);
+                if y >= 0.0 {
+                    [a, b]
+                } else {
+                    [(1.0 - b.abs()) * sign(a), (1.0 - a.abs()) * sign(b)]
+                }
+            }
+            Sphere::Upper => {
+                let y = y.max(0.0);
+                let s = x.abs() + y + z.abs();
+                let (a, b) = if s > 0.0 { (x / s, z / s) } else { (1.0, 0.0) };
+                [a + b, a - b]
+            }
+        }
+    }
+
+    /// The unit direction of point `uv` of `[-1, 1]^2`.
+    pub fn decode(self, uv: [f64; 2]) -> [f64; 3] {
+        let (x, y, z) = match self {
+            Sphere::Full => {
+                let (a, b) = (uv[0], uv[1]);
+                let y = 1.0 - a.abs() - b.abs();
+                if y >= 0.0 {
+                    (a, y, b)
+                } else {
+                    ((1.0 - b.abs()) * sign(a), y, (1.0 - a.abs()) * sign(b))
+                }
+            }
+            Sphere::Upper => {
+                let (a, b) = ((uv[0] + uv[1]) * 0.5, (uv[0] - uv[1]) * 0.5);
+                (a, 1.0 - a.abs() - b.abs(), b)
+            }
+        };
+        ori_raster::normalize([x, y, z])
+    }
+}
+
+/// An octahedral impostor: `frames` x `frames` relief frames.
+pub struct Octahedral {
+    sphere: Sphere,
+    frames: usize,
+    /// Row-major: frame (i, j) at index `j * frames + i`.
+    maps: Vec<ReliefMap>,
+    centre: [f64; 3],
+}
+
+/// The grid point (i, j) of an N x N grid in `[-1, 1]^2`, edges included (as the engines lay
+/// their frames out).
+fn grid_point(i: usize, j: usize, n: usize) -> [f64; 2] {
+    let step = 2.0 / (n - 1) as f64;
+    [i as f64 * step - 1.0, j as f64 * step - 1.0]
+}
+
+impl Octahedral {
+    pub fn bake(
+        mesh: &Mesh,
+        sphere: Sphere,
+        frames: usize,
+        resolution: u32,
+    ) -> Result<Octahedral, RivalError> {
+        let technique = technique(sphere);
+        if !(2..=64).contains(&frames) {
+            return Err(RivalError::Bake {
+                technique: technique.name(),
+                reason: format!("{frames} x {frames} frames: 2 to 64 per side"),
+            });
+        }
+        let directions: Vec<[f64; 3]> = (0..frames * frames)
+            .map(|k| sphere.decode(grid_point(k % frames, k / frames, frames)))
+            .collect();
+        let params = BakeParams {
+            resolution,
+            ..BakeParams::default()
+        };
+        let maps = ori_bake::bake_any_resolution(mesh, &directions, &params)
+            .map_err(|e| RivalError::Bake {
+                technique: technique.name(),
+                reason: e.to_string(),
+            })?
+            .maps;
+        Ok(Octahedral {
+            sphere,
+            frames,
+            maps,
+            centre: crate::bounding_sphere(mesh).0,
+        })
+    }
+
+    /// The layouts that fit `budget` within 5 %: (frames per side, frame edge) for grids of
+    /// 8 to 32 frames a side (multiples of 4, so that any frame edge makes an atlas of whole
+    /// 4 x 4 blocks) with frames at least 16 texels wide.
+    pub fn layouts(budget: u64) -> Vec<(usize, u32)> {
+        [8usize, 12, 16, 24, 32]
+            .into_iter()
+            .filter_map(|n| {
+                let count = (n * n) as u64;
+                let r = crate::edge_for(budget, count, 1, relief_bytes)?;
+                let bytes = relief_bytes(count * u64::from(r) * u64::from(r));
+                (r >= 16 && within_budget(bytes, budget)).then_some((n, r))
+            })
+            .collect()
+    }
+
+    /// The three frames blended for view direction `w` and their weights.
+    fn blend(&self, w: [f64; 3]) -> [(usize, f64); 3] {
+        let n = self.frames;
+        let uv = self.sphere.encode(w);
+        let g = uv.map(|c| ((c + 1.0) * 0.5 * (n - 1) as f64).clamp(0.0, (n - 1) as f64));
+        let (i, j) = (
+            (g[0].floor() as usize).min(n - 2),
+            (g[1].floor() as usize).min(n - 2),
+        );
+        let (fx, fy) = (g[0] - i as f64, g[1] - j as f64);
+        let at = |a: usize, b: usize| b * n + a;
+        if fx + fy <= 1.0 {
+            [
+                (at(i, j), 1.0 - fx - fy),
+                (at(i + 1, j), fx),
+                (at(i, j + 1), fy),
+            ]
+        } else {
+            [
+                (at(i + 1, j + 1), fx + fy - 1.0),
+                (at(i, j + 1), 1.0 - fx),
+                (at(i + 1, j), 1.0 - fy),
+            ]
+        }
+    }
+}
+
+fn technique(sphere: Sphere) -> Technique {
+    match sphere {
+        Sphere::Full => Technique::Octahedral,
+        Sphere::Upper => Technique::HemiOctahedral,
+    }
+}
+
+/// Frames whose direction is this close to the view plane are read without parallax.
+const MIN_PARALLAX_COS: f64 = 0.05;
+
+impl Rival for Octahedral {
+    fn technique(&self) -> Technique {
+        technique(self.sphere)
+    }
+
+    fn bytes(&self) -> u64 {
+        relief_bytes(self.maps.iter().map(|m| u64::from(m.size()).pow(2)).sum())
+    }
+
+    fn layout(&self) -> String {
+        let r = self.maps[0].size();
+        format!("{0} x {0} frames of {r} x {r}", self.frames)
+    }
+
+    fn primitive(&self) -> Primitive {
+        Primitive::Quads
+    }
+
+    fn draw(&self, view: &OrthoView) -> Result<Drawn, RivalError> {
+        let w = view.frame.d;
+        let frames = self.blend(w);
+        let mut render = Render::empty(view.size);
+        // Only where a frame's first lookup can find a texel (its window on the plane the
+        // lookup starts from); every pixel when a frame is read without parallax.
+        let all = PixelBox {
+            x0: 0,
+            x1: view.size as usize,
+            y0: 0,
+            y1: view.size as usize,
+        };
+        let pixels = frames
+            .iter()
+            .filter(|&&(_, weight)| weight > 0.0)
+            .map(|&(k, _)| {
+                let map = &self.maps[k];
+                if dot(w, map.view.frame.d) > MIN_PARALLAX_COS {
+                    window_pixels(view, map, self.centre)
+                } else {
+                    all
+                }
+            })
+            .fold(PixelBox::empty(), PixelBox::union);
+        for i in pixels.pixels(view.size) {
+            let o = pixel_origin(view, i);
+            let (mut alpha, mut colour, mut normal, mut height) = (0.0, [0.0; 3], [0.0; 3], 0.0);
+            for &(k, weight) in &frames {
+                if weight <= 0.0 {
+                    continue;
+                }
+                let map = &self.maps[k];
+                let d = map.view.frame.d;
+                let wd = dot(w, d);
+                // Where the ray crosses the frame's plane through the centre, or the quad's
+                // where it runs along the frame's.
+                let start = if wd > MIN_PARALLAX_COS { d } else { w };
+                let Some(p0) = hit_plane(o, w, self.centre, start) else {
+                    continue;
+                };
+                let Some(t0) = texel_at(map, p0) else {
+                    continue;
+                };
+                let (p, t) = if wd > MIN_PARALLAX_COS {
+                    let s = (dot(p0, d) - surface_height(map, t0)) / wd;
+                    let p: [f64; 3] = std::array::from_fn(|c| p0[c] - s * w[c]);
+                    match texel_at(map, p) {
+                        Some(t) => (p, t),
+                        None => continue,
+                    }
+                } else {
+                    (p0, t0)
+                };
+                alpha += weight;
+                let nm = world_normal(map, t);
+                for c in 0..3 {
+                    colour[c] += weight * f64::from(map.albedo[t][c]);
+                    normal[c] += weight * f64::from(nm[c]);
+                }
+                height += weight * dot(p, w);
+            }
+            if alpha < 0.5 {
+                continue;
+            }
+            render.coverage.set(i);
+            render.depth[i] = view.depth_of_height(height / alpha) as f32;
+            render.albedo[i] = colour.map(|c| (c / alpha).round().clamp(0.0, 255.0) as u8);
+            let normal = ori_raster::normalize(normal);
+            render.normal[i] = normal.map(|c| c as f32);
+        }
+        Ok(Drawn { render, count: 1 })
+    }
+}
