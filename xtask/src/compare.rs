@@ -220,7 +220,8 @@ fn print_table(args: &Args, budget: u64, directions: usize, rows: &[Row]) {
     }
 }
 
-/// Four views: the first two regular held-out directions and the first two random ones.
+/// Four views: the first two regular held-out directions and the first two random ones (the
+/// first four measured when fewer were).
 fn write_pictures(
     dir: &std::path::Path,
     mesh: &ori_mesh::Mesh,
@@ -230,12 +231,22 @@ fn write_pictures(
 ) -> Result<(), Failure> {
     std::fs::create_dir_all(dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
     let regular = ori_views::HELD_OUT_REGULAR;
-    let picks = [0, 1, regular, regular + 1];
+    let mut picks: Vec<usize> = [0, 1, regular, regular + 1]
+        .into_iter()
+        .filter(|&i| i < directions.len())
+        .collect();
+    // Fewer directions measured: the first ones.
+    for i in 0..directions.len() {
+        if picks.len() >= 4 {
+            break;
+        }
+        if !picks.contains(&i) {
+            picks.push(i);
+        }
+    }
     let names: Vec<&str> = rivals.iter().map(|r| r.technique().name()).collect();
     for (k, &i) in picks.iter().enumerate() {
-        let Some(&w) = directions.get(i) else {
-            continue;
-        };
+        let w = directions[i];
         let (width, height, rgb) = ori_rivals::picture(mesh, rivals, w, s0).map_err(run_error)?;
         let path = dir.join(format!("view-{k}.png"));
         image::save_buffer_with_format(
