@@ -165,7 +165,7 @@ impl Billboards {
             resolution,
             ..BakeParams::default()
         };
-        let (centre, radius) = crate::bounding_sphere(mesh);
+        let (centre, radius) = crate::bounding_sphere(mesh, technique)?;
         let maps = match projection {
             Projection::Orthographic => {
                 ori_bake::bake_any_resolution(mesh, &directions, &params)

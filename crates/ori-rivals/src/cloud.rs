@@ -16,8 +16,9 @@
 //!   per cluster. So every merge is evaluated in constant time.
 //! - Closeness (the paper's generalised adjacency): triangles sharing a vertex, and the
 //!   triangles nearest in Morton order of their centroids, which joins disconnected parts.
-//! - Each cluster's texture is square, baked orthographically along its normal at one texel
-//!   density for all clusters, the largest whose textures fit the budget.
+//! - Each cluster's texture is square (the paper fits its rectangle), baked orthographically
+//!   along its normal at one texel density for all clusters, the largest whose textures and
+//!   quads (`CARD_BYTES` each) fit the budget.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -40,6 +41,8 @@ const MAX_WASTE: f64 = 0.9;
 const FINEST: f64 = 0.005;
 /// Neighbours in Morton order each triangle is close to, on either side.
 const MORTON_WINDOW: usize = 4;
+/// Geometry bytes of one card: four corners (position and UV as f32) and six 16-bit indices.
+const CARD_BYTES: u64 = 4 * (12 + 8) + 6 * 2;
 /// Triangles around one vertex beyond which only consecutive ones are joined.
 const FAN_LIMIT: usize = 12;
 
@@ -305,15 +308,22 @@ fn closeness(mesh: &Mesh, faces: &[u32]) -> Vec<(u32, u32)> {
     pairs
 }
 
-/// The clusters (lists of triangle indices) when `targets` (descending) clusters are left,
-/// or when no merge is allowed any more.
-fn cluster(mesh: &Mesh, targets: &[usize]) -> Vec<Vec<Vec<u32>>> {
-    let (_, radius) = crate::bounding_sphere(mesh);
+/// A cluster: its triangles and their moments (about the bounding sphere's centre).
+type Cluster = (Vec<u32>, Moments);
+
+/// The clusters when `targets` (descending) clusters are left, or when no merge is allowed
+/// any more (a snapshot per target, none repeated); `centre` and `radius` are the model's
+/// bounding sphere's. Moments are taken about the centre, so that a model far from the
+/// origin keeps the precision of its thin variances.
+fn cluster(mesh: &Mesh, centre: [f64; 3], radius: f64, targets: &[usize]) -> Vec<Vec<Cluster>> {
     let finest = FINEST * radius;
     let mut faces = Vec::new();
     let mut moments: Vec<Option<Moments>> = Vec::new();
     for (t, tri) in mesh.triangles.iter().enumerate() {
-        let p = tri.map(|i| mesh.positions[i as usize].map(f64::from));
+        let p = tri.map(|i| {
+            let q = mesh.positions[i as usize];
+            std::array::from_fn(|k| f64::from(q[k]) - centre[k])
+        });
         if let Some(m) = Moments::triangle(p) {
             faces.push(t as u32);
             moments.push(Some(m));
@@ -342,19 +352,27 @@ fn cluster(mesh: &Mesh, targets: &[usize]) -> Vec<Vec<Vec<u32>>> {
     let mut live = n;
     let mut out = Vec::new();
     let mut targets = targets.iter().copied().peekable();
-    let snapshot = |members: &Vec<Vec<u32>>| -> Vec<Vec<u32>> {
-        members.iter().filter(|m| !m.is_empty()).cloned().collect()
+    let snapshot = |members: &Vec<Vec<u32>>, moments: &Vec<Option<Moments>>| -> Vec<Cluster> {
+        members
+            .iter()
+            .zip(moments)
+            .filter_map(|(m, s)| s.map(|s| (m.clone(), s)))
+            .collect()
     };
+    let mut last = usize::MAX;
     while let Some(&target) = targets.peek() {
         if live <= target {
-            out.push(snapshot(&members));
+            if live != last {
+                out.push(snapshot(&members, &moments));
+                last = live;
+            }
             targets.next();
             continue;
         }
         let Some(Reverse((_, a, b, va, vb))) = heap.pop() else {
-            // No merge allowed: every remaining target gets what is left.
-            while targets.next().is_some() {
-                out.push(snapshot(&members));
+            // No merge allowed: what is left is the last snapshot.
+            if live != last {
+                out.push(snapshot(&members, &moments));
             }
             break;
         };
@@ -434,27 +452,22 @@ impl BillboardCloud {
             reason,
         };
         let mut clouds = Vec::new();
-        for clusters in cluster(mesh, counts) {
+        let (centre, radius) = crate::bounding_sphere(mesh, Technique::BillboardCloud)?;
+        let snapshots = cluster(mesh, centre, radius, counts);
+        if snapshots.iter().all(|s| s.is_empty()) {
+            return Err(bad("no triangle has an area".into()));
+        }
+        for clusters in snapshots {
             let planes: Vec<(Mesh, Frame, [f64; 3], f64)> = clusters
                 .iter()
-                .map(|members| {
-                    let mut m = Moments::triangle(
-                        mesh.triangles[members[0] as usize]
-                            .map(|i| mesh.positions[i as usize].map(f64::from)),
-                    )
-                    .expect("clusters hold non-degenerate triangles");
-                    for &t in &members[1..] {
-                        let p = mesh.triangles[t as usize]
-                            .map(|i| mesh.positions[i as usize].map(f64::from));
-                        m = m.merge(&Moments::triangle(p).expect("non-degenerate"));
-                    }
-                    let plane = m.plane();
+                .map(|(members, moments)| {
+                    let plane = moments.plane();
                     let sub = submesh(mesh, members);
                     let frame = Frame::from_direction(plane.normal);
                     let side = OrthoView::fit(frame, &sub.positions, 8, 0)
                         .map(|v| 2.0 * v.half_size)
                         .unwrap_or(0.0);
-                    (sub, frame, plane.centre, side)
+                    (sub, frame, add(plane.centre, centre), side)
                 })
                 .collect();
             // The largest texel density (texels per unit length) whose textures fit.
@@ -463,12 +476,11 @@ impl BillboardCloud {
                 (texels.div_ceil(4) * 4).clamp(8, 1024) as u32
             };
             let bytes = |density: f64| -> u64 {
-                billboard_bytes(
-                    planes
-                        .iter()
-                        .map(|p| u64::from(edge(density, p.3)).pow(2))
-                        .sum(),
-                )
+                let texels = planes
+                    .iter()
+                    .map(|p| u64::from(edge(density, p.3)).pow(2))
+                    .sum();
+                billboard_bytes(texels) + CARD_BYTES * planes.len() as u64
             };
             let (mut lo, mut hi) = (0.0f64, 1.0f64);
             while bytes(hi) <= budget && hi < 1e12 {

@@ -28,18 +28,20 @@ impl References {
         Ok(References { views, coverage })
     }
 
-    /// Pixels of the mesh that `rival` misses, summed over the views.
-    pub fn total_missed(&self, rival: &dyn Rival) -> Result<u64, RivalError> {
-        let missed = self
+    /// The silhouette error of `rival` (pixels of the mesh it misses plus pixels it adds),
+    /// summed over the views: what layouts are chosen by, so that neither fat nor thin
+    /// silhouettes are favoured.
+    pub fn silhouette_error(&self, rival: &dyn Rival) -> Result<u64, RivalError> {
+        let errors = self
             .views
             .par_iter()
             .zip(&self.coverage)
             .map(|(v, mesh)| {
-                let drawn = rival.draw(v)?;
-                Ok(u64::from(mesh.count_minus(&drawn.render.coverage)))
+                let drawn = rival.draw(v)?.render.coverage;
+                Ok(u64::from(mesh.count_minus(&drawn)) + u64::from(drawn.count_minus(mesh)))
             })
             .collect::<Result<Vec<u64>, RivalError>>()?;
-        Ok(missed.iter().sum())
+        Ok(errors.iter().sum())
     }
 }
 

@@ -124,7 +124,7 @@ impl Octahedral {
             sphere,
             frames,
             maps,
-            centre: crate::bounding_sphere(mesh).0,
+            centre: crate::bounding_sphere(mesh, technique)?.0,
         })
     }
 

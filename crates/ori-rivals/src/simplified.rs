@@ -68,8 +68,10 @@ pub(crate) fn compact(mesh: &Mesh, indices: &[u32], triangles: &[usize]) -> Mesh
 
 impl SimplifiedMesh {
     /// The mesh with the most triangles whose buffers fit `budget`; the whole mesh when it
-    /// fits. Materials are kept: each material's triangles are simplified separately, so that
-    /// no triangle changes material.
+    /// fits. Materials are kept: each material's triangles are simplified separately (with
+    /// the vertices they share locked), so that no triangle changes material. meshoptimizer
+    /// is C++ built by the platform's compiler: where that contracts multiply-adds (not on
+    /// x86-64), its collapses, and so this row, may differ by platform.
     pub fn new(mesh: &Mesh, budget: u64) -> Result<SimplifiedMesh, RivalError> {
         let per_vertex = vertex_bytes(mesh);
         let original = mesh.triangles.len();
@@ -119,13 +121,28 @@ fn simplify_to(mesh: &Mesh, target: usize) -> (Vec<u32>, Vec<usize>) {
     for (t, &m) in mesh.triangle_materials.iter().enumerate() {
         by_material[m as usize].push(t);
     }
+    // Vertices of more than one material stay where they are, so that materials simplified
+    // apart keep meeting without cracks.
+    let mut owner = vec![u32::MAX; mesh.positions.len()];
+    let mut shared = vec![false; mesh.positions.len()];
+    for (tri, &m) in mesh.triangles.iter().zip(&mesh.triangle_materials) {
+        for &v in tri {
+            let o = &mut owner[v as usize];
+            if *o == u32::MAX {
+                *o = m;
+            } else if *o != m {
+                shared[v as usize] = true;
+            }
+        }
+    }
     let (mut indices, mut triangles) = (Vec::new(), Vec::new());
     for group in by_material.iter().filter(|g| !g.is_empty()) {
         let corners: Vec<u32> = group.iter().flat_map(|&t| mesh.triangles[t]).collect();
         let share = (target as u128 * group.len() as u128 / total as u128) as usize;
-        let kept = meshopt::simplify_decoder(
+        let kept = meshopt::simplify_with_locks_decoder(
             &corners,
             &mesh.positions,
+            &shared,
             3 * share.max(1),
             1.0,
             meshopt::SimplifyOptions::None,

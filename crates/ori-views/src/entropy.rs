@@ -10,7 +10,7 @@ use crate::directions::{dot, sub};
 /// largest distance from it to a vertex. Not the smallest enclosing sphere, but it does not
 /// depend on the direction, which is what makes entropies of different directions comparable.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct BoundingSphere {
+pub struct BoundingSphere {
     pub center: [f64; 3],
     pub radius: f64,
 }
