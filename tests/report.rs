@@ -180,3 +180,46 @@ fn a_rebuild_redraws_only_the_pictures_of_what_changed() {
     let html = fs::read_to_string(p.path("out/report/index.html")).unwrap();
     assert!(html.contains("front-ori.png") && !html.contains("changed since"));
 }
+
+#[test]
+fn with_compare_enabled_the_report_ranks_each_ori_among_its_rivals() {
+    let p = Project::new(&["box-vertex-colors"]);
+    p.config("[compare]\nenabled = true\ndirections = 8\n");
+    ok(&p.build_with_report(&[]));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&fs::read(p.path("out/report/report.json")).unwrap()).unwrap();
+    let rows = summary["assets"][0]["comparison"].as_array().unwrap();
+    let names: Vec<&str> = rows
+        .iter()
+        .map(|r| r["technique"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "octahedral",
+            "hemi-octahedral",
+            "billboards-orthographic",
+            "billboards-perspective",
+            "relief-box",
+            "billboard-cloud",
+            "simplified-mesh",
+            "ori"
+        ]
+    );
+    // The ORI's row is measured on its package: 20 maps of 256 x 256 at 2.5 bytes a texel.
+    assert_eq!(rows[7]["bytes"], 20 * 256 * 256 * 5 / 2);
+    let index = p.path("out/report/index.html");
+    let html = fs::read_to_string(&index).unwrap();
+    assert!(html.contains("Rivals at equal bytes") && html.contains("billboard-cloud"));
+
+    // Turned off again, the section goes (the pictures' stamp names the comparison).
+    p.config("");
+    let out = Command::new(EXE)
+        .args(["report", "--config"])
+        .arg(p.path("pipeline.toml"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", text(&out));
+    let html = fs::read_to_string(&index).unwrap();
+    assert!(!html.contains("Rivals at equal bytes"));
+}

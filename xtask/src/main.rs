@@ -218,17 +218,29 @@ fn folders(
     config: &std::path::Path,
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
-) -> Result<(PathBuf, PathBuf, ori_report::SourceAccess), String> {
+) -> Result<
+    (
+        PathBuf,
+        PathBuf,
+        ori_report::SourceAccess,
+        ori_report::ReportOptions,
+    ),
+    String,
+> {
     let c = ori_pipeline::Config::load(config).map_err(|e| e.to_string())?;
     let assets = assets.unwrap_or_else(|| c.resolve(&c.assets.root));
     let access = ori_report::SourceAccess {
         rules: c.limits.source_rules(&assets).map_err(|e| e.to_string())?,
         limits: c.limits.mesh(),
     };
+    let options = ori_report::ReportOptions {
+        compare_directions: c.compare.directions(),
+    };
     Ok((
         out.unwrap_or_else(|| c.resolve(&c.output.dir)),
         assets,
         access,
+        options,
     ))
 }
 
@@ -239,8 +251,8 @@ fn write_report(
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
 ) -> Result<PathBuf, String> {
-    let (out, assets, access) = folders(config, out, assets)?;
-    let written = ori_report::write_report(&out, &assets, &access)?;
+    let (out, assets, access, options) = folders(config, out, assets)?;
+    let written = ori_report::write_report(&out, &assets, &access, &options)?;
     if written.invalid_packages.is_empty() {
         return Ok(written.index);
     }

@@ -19,6 +19,7 @@ pub struct Config {
     pub cache: CacheConfig,
     pub output: OutputConfig,
     pub limits: LimitsConfig,
+    pub compare: CompareConfig,
     /// Stage parameters before overrides.
     stages: toml::Table,
     overrides: Vec<Override>,
@@ -247,6 +248,43 @@ impl RemoteConfig {
     }
 }
 
+/// `[compare]`: the HTML report's comparison of each ORI with the rival techniques at its
+/// texture bytes (`cargo xtask compare`); slow, so off by default.
+#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompareConfig {
+    pub enabled: bool,
+    /// Held-out directions measured (the first ones of the 3,280).
+    pub directions: usize,
+}
+
+impl Default for CompareConfig {
+    fn default() -> Self {
+        CompareConfig {
+            enabled: false,
+            directions: ori_views::HELD_OUT_REGULAR + ori_views::HELD_OUT_RANDOM,
+        }
+    }
+}
+
+impl CompareConfig {
+    fn validate(&self) -> Result<(), String> {
+        let all = ori_views::HELD_OUT_REGULAR + ori_views::HELD_OUT_RANDOM;
+        if !(1..=all).contains(&self.directions) {
+            return Err(format!(
+                "[compare] directions = {}: expected 1 to {all}",
+                self.directions
+            ));
+        }
+        Ok(())
+    }
+
+    /// What the report is asked to compare.
+    pub fn directions(&self) -> Option<usize> {
+        self.enabled.then_some(self.directions)
+    }
+}
+
 /// `[output]`: where the build writes its results.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -346,6 +384,8 @@ struct ConfigFile {
     output: OutputConfig,
     #[serde(default)]
     limits: LimitsConfig,
+    #[serde(default)]
+    compare: CompareConfig,
     #[serde(default)]
     overrides: Vec<OverrideFile>,
     #[serde(flatten)]
@@ -566,6 +606,7 @@ impl Config {
             remote.validate().map_err(fail)?;
         }
         file.limits.validate().map_err(fail)?;
+        file.compare.validate().map_err(fail)?;
         for pattern in file.assets.include.iter().chain(&file.assets.exclude) {
             glob(pattern).map_err(|e| fail(format!("[assets] pattern {pattern:?}: {e}")))?;
         }
@@ -576,6 +617,7 @@ impl Config {
             cache: file.cache,
             output: file.output,
             limits: file.limits,
+            compare: file.compare,
             stages,
             overrides,
             text: text.to_string(),

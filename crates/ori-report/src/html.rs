@@ -280,6 +280,9 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
         );
     }
     h.push_str("</div>\n");
+    if !a.comparison.is_empty() {
+        comparison(h, a);
+    }
     if a.pictures.iter().any(|p| p.0.starts_with("maps-")) {
         h.push_str("<h3>Baked relief maps (as packaged)</h3><div class=\"pics\">");
         for (file, caption) in [
@@ -293,6 +296,37 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
         }
         h.push_str("</div>\n");
     }
+}
+
+/// The ORI and its rivals at the ORI's texture bytes (`[compare] enabled`).
+fn comparison(h: &mut String, a: &AssetSummary) {
+    h.push_str(
+        "<h3>Rivals at equal bytes</h3>\n<p class=\"muted\">Every technique baked from the \
+         model within the ORI's texture bytes and measured like it at held-out directions \
+         (<code>cargo xtask compare</code>).</p>\n<table><thead><tr><th>technique</th>\
+         <th>bytes</th><th>coverage error avg %</th><th>max %</th><th>inverse coverage avg \
+         %</th><th>p_dif</th><th>drawn per view</th><th>layout</th></tr></thead><tbody>",
+    );
+    for r in &a.comparison {
+        let drawn = match r.drawn {
+            ori_rivals::Primitive::Quads => "quads",
+            ori_rivals::Primitive::Triangles => "triangles",
+        };
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td>\
+             <td>{:.1}</td><td>{:.2} {drawn}</td><td>{}</td></tr>",
+            r.technique.name(),
+            r.bytes,
+            r.coverage_error_avg_percent,
+            r.coverage_error_max_percent,
+            r.inverse_coverage_avg_percent,
+            r.p_dif_avg,
+            r.drawn_per_view,
+            esc(&r.layout)
+        );
+    }
+    h.push_str("</tbody></table>\n");
 }
 
 /// Bars for 1, 2, ... impostors per view (index 0, no impostor, only when non-zero).

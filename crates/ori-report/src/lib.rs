@@ -93,15 +93,24 @@ struct Drawn {
     pictures: Vec<(String, String)>,
     notes: Vec<String>,
     p_dif: Option<f64>,
+    #[serde(default)]
+    comparison: Vec<ori_rivals::Row>,
 }
 
-/// The stamp of an asset's pictures: the drawing version, the package's blake3 (from
-/// `release.json`) and the source model's current content. `None` when the source cannot be
+/// The stamp of an asset's pictures: the drawing version, the comparison asked for, the
+/// package's blake3 (from `release.json`) and the source model's current content. `None` when the source cannot be
 /// read (the pictures say why).
-fn stamp(package_blake3: &str, source: &Path, access: &SourceAccess) -> Option<String> {
+fn stamp(
+    package_blake3: &str,
+    source: &Path,
+    access: &SourceAccess,
+    options: &ReportOptions,
+) -> Option<String> {
     let source = access.read(source).ok()?;
     let mut h = blake3::Hasher::new();
     h.update(&PICTURES_VERSION.to_le_bytes());
+    let compare = options.compare_directions.map_or(0, |n| n as u64 + 1);
+    h.update(&compare.to_le_bytes());
     h.update(package_blake3.as_bytes());
     h.update(blake3::hash(&source).as_bytes());
     Some(h.finalize().to_hex().to_string())
@@ -153,9 +162,20 @@ pub struct AssetSummary {
     pub pictures: Vec<(String, String)>,
     /// Why some pictures are missing.
     pub notes: Vec<String>,
+    /// `[compare] enabled`: the ORI and its rivals at its texture bytes (`cargo xtask
+    /// compare`'s rows); empty otherwise.
+    pub comparison: Vec<ori_rivals::Row>,
     /// Why the package failed its check against `release.json`, if it did.
     #[serde(skip)]
     pub invalid: Option<String>,
+}
+
+/// What the report draws besides its pictures.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ReportOptions {
+    /// `[compare] enabled`: compare each ORI with the rival techniques at its texture bytes
+    /// (`ori_rivals`) at this many held-out directions; `None`: no comparison.
+    pub compare_directions: Option<usize>,
 }
 
 /// `report/report.json`.
@@ -171,6 +191,7 @@ pub fn write_report(
     out_dir: &Path,
     assets_root: &Path,
     access: &SourceAccess,
+    options: &ReportOptions,
 ) -> Result<Written, String> {
     let build: BuildReport = read_json(&out_dir.join(REPORT_JSON))?;
     let release: Release = read_json(&out_dir.join(RELEASE_JSON))?;
@@ -180,7 +201,16 @@ pub fn write_report(
         .assets
         .par_iter()
         .enumerate()
-        .map(|(i, a)| asset_summary(i, a, &release, out_dir, assets_root, &dir, access))
+        .map(|(i, a)| {
+            let place = Place {
+                out_dir,
+                assets_root,
+                dir: &dir,
+                access,
+                options,
+            };
+            asset_summary(i, a, &release, &place)
+        })
         .collect();
     let invalid_packages = summaries.iter().filter_map(|s| s.invalid.clone()).collect();
     let summary = ReportSummary { assets: summaries };
@@ -236,15 +266,28 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), String> {
     std::fs::write(path, bytes).map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
+/// Where a report is written from and to, and what it draws.
+struct Place<'a> {
+    out_dir: &'a Path,
+    assets_root: &'a Path,
+    dir: &'a Path,
+    access: &'a SourceAccess,
+    options: &'a ReportOptions,
+}
+
 fn asset_summary(
     index: usize,
     a: &AssetReport,
     release: &Release,
-    out_dir: &Path,
-    assets_root: &Path,
-    dir: &Path,
-    access: &SourceAccess,
+    place: &Place<'_>,
 ) -> AssetSummary {
+    let Place {
+        out_dir,
+        assets_root,
+        dir,
+        access,
+        options,
+    } = *place;
     let name = a.name.clone();
     let q = a.quality.as_ref();
     let mut s = AssetSummary {
@@ -283,7 +326,7 @@ fn asset_summary(
     s.texture_bytes = Some(entry.texture_bytes);
     let package_path = out_dir.join(&entry.package);
     let folder = format!("a{index:03}");
-    let stamp = stamp(&entry.blake3, &assets_root.join(&name), access);
+    let stamp = stamp(&entry.blake3, &assets_root.join(&name), access, options);
     // Pictures are reused only while the package file is the one they were drawn from (its
     // size as listed, not written since); any other package is checked in full first.
     if let Some(d) = stamp
@@ -292,6 +335,7 @@ fn asset_summary(
         .filter(|_| unchanged_since_drawn(&package_path, entry, &dir.join(&folder)))
     {
         (s.impostors, s.pictures, s.p_dif) = (d.impostors, d.pictures, d.p_dif);
+        s.comparison = d.comparison;
         s.notes.extend(d.notes);
         return s;
     }
@@ -300,14 +344,7 @@ fn asset_summary(
         s.invalid = Some(e);
         return s;
     }
-    match pictures_of(
-        &mut s,
-        out_dir,
-        assets_root,
-        &dir.join(&folder),
-        &folder,
-        access,
-    ) {
+    match pictures_of(&mut s, place, &dir.join(&folder), &folder) {
         // Only a complete set is kept: a failure is tried again next time.
         Ok(()) => {
             if let Some(stamp) = stamp {
@@ -317,6 +354,7 @@ fn asset_summary(
                     pictures: s.pictures.clone(),
                     notes: s.notes.clone(),
                     p_dif: s.p_dif,
+                    comparison: s.comparison.clone(),
                 };
                 let json = serde_json::to_vec_pretty(&drawn).expect("serialises");
                 if let Err(e) = write_file(&dir.join(&folder).join("pictures.json"), &json) {
@@ -332,12 +370,17 @@ fn asset_summary(
 /// Draw every picture of an asset into `folder` (named `rel` from the report folder).
 fn pictures_of(
     s: &mut AssetSummary,
-    out_dir: &Path,
-    assets_root: &Path,
+    place: &Place<'_>,
     folder: &Path,
     rel: &str,
-    access: &SourceAccess,
 ) -> Result<(), String> {
+    let Place {
+        out_dir,
+        assets_root,
+        access,
+        options,
+        ..
+    } = *place;
     let package_path = out_dir.join(s.package.as_deref().unwrap_or_default());
     let bytes = std::fs::read(&package_path)
         .map_err(|e| format!("{}: cannot read: {e}", package_path.display()))?;
@@ -460,6 +503,17 @@ fn pictures_of(
         "worst-error.png",
         &error,
     )?;
+    if let Some(count) = options.compare_directions {
+        let eval = EvalParams {
+            s0: m.selection.s0,
+            ..params.clone()
+        };
+        let subsets = Box::new(subset_for);
+        let ori = ori_rivals::Relief::ori_with(&mesh, &set, subsets, &eval)
+            .map_err(|e| format!("comparison: {e}"))?;
+        s.comparison = compare(&mesh, &set, &ori, count, m.selection.s0)
+            .map_err(|e| format!("comparison: {e}"))?;
+    }
     // Figure 2: how many impostors sample each triangle.
     let impostor_dirs: Vec<[f64; 3]> = m.impostors.iter().map(|i| i.direction).collect();
     let counts = ori_views::sampling_coverage_with_visible(
@@ -478,6 +532,29 @@ fn pictures_of(
         )?;
     }
     Ok(())
+}
+
+/// Every rival technique baked within the ORI's texture bytes and measured with it at the
+/// first `count` held-out directions.
+fn compare(
+    mesh: &ori_mesh::Mesh,
+    set: &ori_relief::ReliefSet,
+    ori: &dyn ori_rivals::Rival,
+    count: usize,
+    s0: u32,
+) -> Result<Vec<ori_rivals::Row>, ori_rivals::RivalError> {
+    let seed = ori_views::DEFAULT_HELD_OUT_SEED;
+    let texels = set.maps.iter().map(|m| u64::from(m.size()).pow(2)).sum();
+    let budget = ori_rivals::relief_bytes(texels);
+    let tuning = ori_rivals::References::new(mesh, &ori_rivals::tuning_directions(seed), s0)?;
+    let rivals =
+        ori_rivals::Rivals::bake(mesh, budget, &ori_rivals::Technique::ALL, &tuning, &|_| ())?;
+    let all = rivals.all(mesh)?;
+    let mut drawn: Vec<&dyn ori_rivals::Rival> = all.iter().map(|r| r.as_ref() as _).collect();
+    drawn.push(ori);
+    let mut directions = ori_views::held_out_directions(seed);
+    directions.truncate(count.max(1));
+    ori_rivals::compare(mesh, &drawn, &directions, s0)
 }
 
 fn normalize(w: [f64; 3]) -> [f64; 3] {

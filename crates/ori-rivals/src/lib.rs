@@ -42,7 +42,7 @@ pub use billboard::{Billboards, Projection};
 pub use cloud::BillboardCloud;
 pub use measure::{Comparison, Measured, References, Row, compare, measure, picture, summarize};
 pub use octahedral::{Octahedral, Sphere};
-pub use relief_box::Relief;
+pub use relief_box::{Relief, Subsets};
 pub use simplified::SimplifiedMesh;
 
 /// The techniques compared, by the names `cargo xtask compare` prints and writes.

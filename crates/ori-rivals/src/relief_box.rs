@@ -11,12 +11,15 @@ use ori_select::Selection;
 
 use crate::{Drawn, Primitive, Rival, RivalError, Technique, relief_bytes, within_budget};
 
+/// The subset of impostors a view direction draws.
+pub type Subsets<'a> = Box<dyn Fn([f64; 3]) -> Vec<usize> + Send + Sync + 'a>;
+
 /// Which impostors a view draws.
 enum Rule<'a> {
     /// Every facing one, closest direction first.
     Facing,
-    /// The subset of the table entry nearest the view direction.
-    Table(&'a Selection),
+    /// A selection table's.
+    Table(Subsets<'a>),
 }
 
 /// Relief maps drawn by the runtime rule.
@@ -69,22 +72,31 @@ impl<'a> Relief<'a> {
         selection: &'a Selection,
         params: &EvalParams,
     ) -> Result<Relief<'a>, RivalError> {
+        let subsets = |w: [f64; 3]| {
+            let entry = selection.lookup(w);
+            entry.impostors.iter().map(|&i| usize::from(i)).collect()
+        };
+        Relief::ori_with(mesh, maps, Box::new(subsets), params)
+    }
+
+    /// The ORI of `maps` whose table gives `subsets` (a package's, read as a runtime does).
+    pub fn ori_with(
+        mesh: &'a Mesh,
+        maps: &'a ReliefSet,
+        subsets: Subsets<'a>,
+        params: &EvalParams,
+    ) -> Result<Relief<'a>, RivalError> {
         Ok(Relief {
             technique: Technique::Ori,
             evaluator: Evaluator::new(mesh, maps, params)?,
-            rule: Rule::Table(selection),
+            rule: Rule::Table(subsets),
         })
     }
 
     fn subset(&self, w: [f64; 3]) -> Vec<usize> {
-        match self.rule {
+        match &self.rule {
             Rule::Facing => self.evaluator.facing(w),
-            Rule::Table(selection) => selection
-                .lookup(w)
-                .impostors
-                .iter()
-                .map(|&i| usize::from(i))
-                .collect(),
+            Rule::Table(subsets) => subsets(w),
         }
     }
 }
