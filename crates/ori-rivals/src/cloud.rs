@@ -532,12 +532,12 @@ impl Rival for BillboardCloud {
     }
 
     fn bytes(&self) -> u64 {
-        billboard_bytes(
-            self.cards
-                .iter()
-                .map(|c| u64::from(c.map.size()).pow(2))
-                .sum(),
-        )
+        let texels = self
+            .cards
+            .iter()
+            .map(|c| u64::from(c.map.size()).pow(2))
+            .sum();
+        billboard_bytes(texels) + CARD_BYTES * self.cards.len() as u64
     }
 
     fn layout(&self) -> String {

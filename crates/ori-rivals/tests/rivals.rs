@@ -156,6 +156,12 @@ fn a_billboard_cloud_finds_the_planes_of_a_quad_and_of_a_box() {
     let clouds = BillboardCloud::bake_all(&quad, &[1], 200_000).unwrap();
     assert_eq!(clouds.len(), 1);
     assert_eq!(clouds[0].layout(), "1 planes from 2 triangles");
+    // Its texture and its quad fill the budget.
+    let bytes = clouds[0].bytes();
+    assert!(
+        bytes <= 200_000 && ori_rivals::within_budget(bytes, 200_000),
+        "{bytes}"
+    );
     // A box is six planes: merging its faces' triangles costs nothing, merging two faces
     // makes a plane as thick as the box, the coarsest level. Drawn with a depth test, the six
     // are the box from every direction.
