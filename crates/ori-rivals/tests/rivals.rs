@@ -260,4 +260,7 @@ fn a_comparison_is_the_same_on_one_and_two_threads() {
     let rows: Vec<Row> = serde_json::from_str(&one).unwrap();
     let names: Vec<Technique> = rows.iter().map(|r| r.technique).collect();
     assert_eq!(names, Technique::ALL[..7]);
+    for r in rows.iter().filter(|r| r.technique.is_texture()) {
+        assert!(within_budget(r.bytes, 300_000), "{r:?}");
+    }
 }
