@@ -430,14 +430,15 @@ pub struct BillboardCloud {
     triangles: usize,
 }
 
-/// The cluster's triangles as a mesh of their own.
-fn submesh(mesh: &Mesh, triangles: &[u32]) -> Mesh {
+/// `scratch` (a copy of the model) made the cluster's triangles alone; its materials and
+/// textures stay the model's, so no texture is copied per card.
+fn submesh_into(mesh: &Mesh, triangles: &[u32], scratch: &mut Mesh) {
     let corners: Vec<u32> = triangles
         .iter()
         .flat_map(|&t| mesh.triangles[t as usize])
         .collect();
     let order: Vec<usize> = triangles.iter().map(|&t| t as usize).collect();
-    crate::simplified::compact(mesh, &corners, &order)
+    crate::simplified::compact_into(mesh, &corners, &order, scratch);
 }
 
 impl BillboardCloud {
@@ -459,16 +460,23 @@ impl BillboardCloud {
             return Err(bad("no triangle has an area".into()));
         }
         for clusters in snapshots {
-            let planes: Vec<(Mesh, Frame, [f64; 3], f64)> = clusters
+            // Per cluster: its frame, a point of its plane, and the side of its texture's
+            // window. Its sub-mesh is made in a copy of the model per worker while its card
+            // is baked, so that neither memory nor time goes to copies of the textures.
+            let planes: Vec<(&[u32], Frame, [f64; 3], f64)> = clusters
                 .iter()
                 .map(|(members, moments)| {
                     let plane = moments.plane();
-                    let sub = submesh(mesh, members);
                     let frame = Frame::from_direction(plane.normal);
-                    let side = OrthoView::fit(frame, &sub.positions, 8, 0)
+                    let corners: Vec<[f32; 3]> = members
+                        .iter()
+                        .flat_map(|&t| mesh.triangles[t as usize])
+                        .map(|v| mesh.positions[v as usize])
+                        .collect();
+                    let side = OrthoView::fit(frame, &corners, 8, 0)
                         .map(|v| 2.0 * v.half_size)
                         .unwrap_or(0.0);
-                    (sub, frame, add(plane.centre, centre), side)
+                    (members.as_slice(), frame, add(plane.centre, centre), side)
                 })
                 .collect();
             // The largest texel density (texels per unit length) whose textures fit.
@@ -500,19 +508,25 @@ impl BillboardCloud {
             }
             let cards = planes
                 .par_iter()
-                .map(|(sub, frame, centre, side)| {
-                    let params = BakeParams {
-                        resolution: edge(lo, *side),
-                        supersample: 2,
-                        margin: 1,
-                    };
-                    let mut set = ori_bake::bake_any_resolution(sub, &[frame.d], &params)
-                        .map_err(|e| bad(e.to_string()))?;
-                    Ok(Card {
-                        map: set.maps.pop().expect("one direction, one map"),
-                        centre: *centre,
-                    })
-                })
+                // At most 64 copies of the model per cloud, however the work is split.
+                .with_min_len(planes.len().div_ceil(64).max(1))
+                .map_init(
+                    || mesh.clone(),
+                    |scratch, (members, frame, centre, side)| {
+                        let params = BakeParams {
+                            resolution: edge(lo, *side),
+                            supersample: 2,
+                            margin: 1,
+                        };
+                        submesh_into(mesh, members, scratch);
+                        let mut set = ori_bake::bake_any_resolution(scratch, &[frame.d], &params)
+                            .map_err(|e| bad(e.to_string()))?;
+                        Ok(Card {
+                            map: set.maps.pop().expect("one direction, one map"),
+                            centre: *centre,
+                        })
+                    },
+                )
                 .collect::<Result<Vec<_>, RivalError>>()?;
             clouds.push(BillboardCloud {
                 cards,

@@ -28,6 +28,23 @@ fn mesh_bytes(per_vertex: u64, vertices: usize, triangles: usize) -> u64 {
 
 /// The vertices `indices` use, and the triangles renumbered to them (first use order).
 pub(crate) fn compact(mesh: &Mesh, indices: &[u32], triangles: &[usize]) -> Mesh {
+    let mut out = Mesh {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        uvs: None,
+        colors: None,
+        triangles: Vec::new(),
+        triangle_materials: Vec::new(),
+        materials: mesh.materials.clone(),
+        textures: mesh.textures.clone(),
+    };
+    compact_into(mesh, indices, triangles, &mut out);
+    out
+}
+
+/// [`compact`] into the geometry of `out`, whose materials and textures (the model's) are
+/// kept: no texture is copied.
+pub(crate) fn compact_into(mesh: &Mesh, indices: &[u32], triangles: &[usize], out: &mut Mesh) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut used = Vec::new();
     let corners: Vec<u32> = indices
@@ -42,28 +59,24 @@ pub(crate) fn compact(mesh: &Mesh, indices: &[u32], triangles: &[usize]) -> Mesh
         })
         .collect();
     let pick = |v: &Vec<[f32; 3]>| used.iter().map(|&i| v[i]).collect::<Vec<_>>();
-    Mesh {
-        positions: pick(&mesh.positions),
-        normals: pick(&mesh.normals),
-        uvs: mesh
-            .uvs
-            .as_ref()
-            .map(|uv| used.iter().map(|&i| uv[i]).collect()),
-        colors: mesh
-            .colors
-            .as_ref()
-            .map(|c| used.iter().map(|&i| c[i]).collect()),
-        triangles: corners
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect(),
-        triangle_materials: triangles
-            .iter()
-            .map(|&t| mesh.triangle_materials[t])
-            .collect(),
-        materials: mesh.materials.clone(),
-        textures: mesh.textures.clone(),
-    }
+    out.positions = pick(&mesh.positions);
+    out.normals = pick(&mesh.normals);
+    out.uvs = mesh
+        .uvs
+        .as_ref()
+        .map(|uv| used.iter().map(|&i| uv[i]).collect());
+    out.colors = mesh
+        .colors
+        .as_ref()
+        .map(|c| used.iter().map(|&i| c[i]).collect());
+    out.triangles = corners
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    out.triangle_materials = triangles
+        .iter()
+        .map(|&t| mesh.triangle_materials[t])
+        .collect();
 }
 
 impl SimplifiedMesh {
