@@ -24,7 +24,8 @@ pub struct Args {
     /// The techniques to compare, comma-separated (default: all of them).
     #[arg(long, value_delimiter = ',', value_parser = parse_technique)]
     techniques: Vec<Technique>,
-    /// Measure at the first N held-out directions only (default: all 3280).
+    /// Measure at N of the held-out directions only, evenly spread through them (default:
+    /// all 3280).
     #[arg(long)]
     directions: Option<usize>,
     /// Write the comparison as JSON to FILE.
@@ -149,10 +150,11 @@ fn compare(args: &Args) -> Result<(), Failure> {
     }
     let refs: Vec<&dyn Rival> = all.iter().map(|r| r.as_ref() as &dyn Rival).collect();
 
-    let mut directions = ori_views::held_out_directions(args.held_out_seed);
-    if let Some(n) = args.directions {
-        directions.truncate(n.max(1));
-    }
+    let directions = ori_rivals::held_out_sample(
+        args.held_out_seed,
+        args.directions
+            .unwrap_or(ori_views::HELD_OUT_REGULAR + ori_views::HELD_OUT_RANDOM),
+    );
     step(&format!(
         "measuring at {} held-out directions",
         directions.len()
@@ -220,8 +222,7 @@ fn print_table(args: &Args, budget: u64, directions: usize, rows: &[Row]) {
     }
 }
 
-/// Four views: the first two regular held-out directions and the first two random ones (the
-/// first four measured when fewer were).
+/// Four views of the measured directions: the first two and two from the middle.
 fn write_pictures(
     dir: &std::path::Path,
     mesh: &ori_mesh::Mesh,
@@ -230,20 +231,13 @@ fn write_pictures(
     s0: u32,
 ) -> Result<(), Failure> {
     std::fs::create_dir_all(dir).map_err(|e| Failure::Run(format!("{}: {e}", dir.display())))?;
-    let regular = ori_views::HELD_OUT_REGULAR;
-    let mut picks: Vec<usize> = [0, 1, regular, regular + 1]
+    // Two regular directions and, with all 3280 measured, two random ones.
+    let n = directions.len();
+    let mut picks: Vec<usize> = [0, 1, n / 2, n / 2 + 1]
         .into_iter()
-        .filter(|&i| i < directions.len())
+        .filter(|&i| i < n)
         .collect();
-    // Fewer directions measured: the first ones.
-    for i in 0..directions.len() {
-        if picks.len() >= 4 {
-            break;
-        }
-        if !picks.contains(&i) {
-            picks.push(i);
-        }
-    }
+    picks.dedup();
     let names: Vec<&str> = rivals.iter().map(|r| r.technique().name()).collect();
     for (k, &i) in picks.iter().enumerate() {
         let w = directions[i];

@@ -254,7 +254,7 @@ impl RemoteConfig {
 #[serde(deny_unknown_fields, default)]
 pub struct CompareConfig {
     pub enabled: bool,
-    /// Held-out directions measured (the first ones of the 3,280).
+    /// Held-out directions measured (evenly spread through the 3,280).
     pub directions: usize,
 }
 

@@ -534,8 +534,8 @@ fn pictures_of(
     Ok(())
 }
 
-/// Every rival technique baked within the ORI's texture bytes and measured with it at the
-/// first `count` held-out directions.
+/// Every rival technique baked within the ORI's texture bytes and measured with it at
+/// `count` held-out directions ([`ori_rivals::held_out_sample`]).
 fn compare(
     mesh: &ori_mesh::Mesh,
     set: &ori_relief::ReliefSet,
@@ -552,8 +552,7 @@ fn compare(
     let all = rivals.all(mesh)?;
     let mut drawn: Vec<&dyn ori_rivals::Rival> = all.iter().map(|r| r.as_ref() as _).collect();
     drawn.push(ori);
-    let mut directions = ori_views::held_out_directions(seed);
-    directions.truncate(count.max(1));
+    let directions = ori_rivals::held_out_sample(seed, count);
     ori_rivals::compare(mesh, &drawn, &directions, s0)
 }
 

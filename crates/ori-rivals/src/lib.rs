@@ -188,6 +188,15 @@ pub(crate) fn bounding_sphere(
     Ok((sphere.center, sphere.radius))
 }
 
+/// `count` of the held-out directions of `seed`, evenly spread through the list (every one
+/// when `count` is 3,280 or more), so that a sample keeps both the regular and the random
+/// ones over the whole sphere.
+pub fn held_out_sample(seed: u64, count: usize) -> Vec<[f64; 3]> {
+    let all = ori_views::held_out_directions(seed);
+    let count = count.clamp(1, all.len());
+    (0..count).map(|i| all[i * all.len() / count]).collect()
+}
+
 /// The seed of the tuning directions: the held-out seed's, changed so that the two sets
 /// share no direction.
 const TUNING_SALT: u64 = 0x7475_6e69_6e67;
