@@ -202,10 +202,7 @@ fn print_table(args: &Args, budget: u64, directions: usize, rows: &[Row]) {
         "technique", "bytes", "cov avg%", "cov max%", "inv avg%", "p_dif", "depth", "drawn/view"
     );
     for r in rows {
-        let drawn = match r.drawn {
-            ori_rivals::Primitive::Quads => "quads",
-            ori_rivals::Primitive::Triangles => "triangles",
-        };
+        let drawn = r.drawn.name();
         println!(
             "{:<24} {:>9} {:>9.3} {:>9.3} {:>9.3} {:>7.1} {:>8.4} {:>6.2} {:<9}  {}",
             r.technique.name(),

@@ -308,10 +308,7 @@ fn comparison(h: &mut String, a: &AssetSummary) {
          %</th><th>p_dif</th><th>drawn per view</th><th>layout</th></tr></thead><tbody>",
     );
     for r in &a.comparison {
-        let drawn = match r.drawn {
-            ori_rivals::Primitive::Quads => "quads",
-            ori_rivals::Primitive::Triangles => "triangles",
-        };
+        let drawn = r.drawn.name();
         let _ = writeln!(
             h,
             "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td>\

@@ -103,6 +103,16 @@ pub enum Primitive {
     Triangles,
 }
 
+impl Primitive {
+    /// As the JSON and the tables write it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Primitive::Quads => "quads",
+            Primitive::Triangles => "triangles",
+        }
+    }
+}
+
 /// One view of a technique.
 pub struct Drawn {
     pub render: Render,
