@@ -52,6 +52,18 @@ pub enum Bench {
         #[arg(long)]
         baseline: bool,
     },
+    /// A cold build of one model at a time, models of growing size: the build's seconds, each
+    /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
+    /// cost per 100k faces.
+    Scale {
+        /// Cold builds per model (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Another model to include after the shared ones (repeatable), e.g. the full
+        /// Stanford dragon's dragon_vrip.ply.
+        #[arg(long = "model")]
+        models: Vec<PathBuf>,
+    },
     /// Frame time of drawing the ORI versus the full mesh with the wgpu renderer (whatever
     /// adapter exists: the software driver on a machine without a GPU).
     Render {
@@ -72,6 +84,7 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
         Bench::Remote { baseline } => crate::bench_remote::run(baseline),
+        Bench::Scale { runs, models } => crate::bench_scale::run(runs, &models),
         Bench::Render { frames, size } => render(frames, size),
     };
     match result {
@@ -184,7 +197,7 @@ fn median(mut times: Vec<Duration>) -> Duration {
 
 /// Real models of growing size (3.7k to 203k faces) under ../shared/models, for the timing
 /// benchmarks.
-const GROWING_MODELS: [&str; 4] = [
+pub(crate) const GROWING_MODELS: [&str; 4] = [
     "stanford/bunny/bunny_npm_lowres.obj",
     "stanford/armadillo/armadillo_odedstein_remeshed.obj",
     "stanford/bunny/stanford-bunny.obj",

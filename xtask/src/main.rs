@@ -3,6 +3,7 @@
 
 mod bench;
 mod bench_remote;
+mod bench_scale;
 mod compare;
 mod compress;
 mod conformance;
