@@ -32,10 +32,14 @@
 //!   [`PlaceParams::step_deg`] of where it is. The move that leaves the lowest (worst error,
 //!   total error) wins, compared in that order; ties: the earlier impostor, then the earlier
 //!   candidate. It is made only if it lowers that pair. A move that leaves any view above
-//!   the current worst error cannot, so each move is first measured in the views of highest
-//!   current error, in batches of 1, 2, 4, ... views, and dropped at the first view it
-//!   pushes above it: its masks in the other views are never computed. The moves that
-//!   pass every view are scored in full; the choice is the one of scoring every move.
+//!   the current worst error cannot. A move changes the drawn impostors of some views only,
+//!   and elsewhere its errors are the current ones, so each move's score is bounded from
+//!   below as it is measured: in the views it changes, highest current error first, in
+//!   batches of 1, 2, 4, ... views. A move is dropped as soon as its bound reaches the
+//!   current score or exceeds the score of a move already measured in full (after the
+//!   first batches, the moves with the lowest bounds are): its masks in the other views are
+//!   never computed. The moves left are scored in full; the choice is the one of scoring
+//!   every move.
 //! - **The end.** The search stops when the worst view's error is within the selection's
 //!   goal (every view measured can then be drawn within the goal), when no move helps, or after
 //!   [`PlaceParams::max_moves`] moves.
@@ -251,7 +255,7 @@ fn place_scored(
             })
             .collect();
         let survivors = match scoring {
-            Scoring::Screened => search.screen(&trials, &errors, current.0)?,
+            Scoring::Screened => search.screen(&chosen, &trials, &errors, current)?,
             Scoring::Every => {
                 let sets: Vec<&[usize]> = trials.iter().map(|t| &t[..]).collect();
                 search.fill(&sets, &all)?;
@@ -435,34 +439,93 @@ impl Search<'_> {
         reference.count_minus(&union)
     }
 
-    /// The trials (indices into `trials`, in order) whose error stays within `worst` in every
-    /// view, with all their masks filled. A trial with a view above `worst` cannot lower the
-    /// score, so views are measured in order of their current `errors`, highest first, in
-    /// growing batches, and a trial is dropped at its first view above `worst`, before its
-    /// masks in the other views are computed.
+    /// The trials (indices into `trials`, in order) that can still win, with all their masks
+    /// filled. A trial changes the drawn candidates of some views only; in the others its
+    /// error is the current one (`errors`), known without a mask. The highest and the sum of
+    /// a trial's errors over the views measured so far and the unchanged ones bound its score
+    /// from below, so a trial is dropped as soon as that bound reaches `current` (it must score
+    /// lower to be chosen) or exceeds the score of a trial measured in full. Changed views are
+    /// measured in order of their current `errors`, highest first, in growing batches; after
+    /// the first few, the trials with the lowest bounds are measured in full, and their scores
+    /// usually drop most of the others before their masks in the other views are computed.
     fn screen(
         &mut self,
+        chosen: &[usize],
         trials: &[Vec<usize>],
         errors: &[u32],
-        worst: u32,
+        current: (u32, u64),
     ) -> Result<Vec<usize>, PlaceError> {
+        const PROBE_AFTER_VIEWS: usize = 7;
+        const MAX_PROBES: usize = 2;
         let mut order: Vec<usize> = (0..self.views.len()).collect();
         order.sort_by_key(|&v| (std::cmp::Reverse(errors[v]), v));
-        let mut alive: Vec<usize> = (0..trials.len()).collect();
+        let now: Vec<Vec<usize>> = (0..self.views.len())
+            .map(|v| self.drawn(chosen, v))
+            .collect();
+        // changed[k][v]: whether trial k draws other candidates than `chosen` in view v.
+        let changed: Vec<Vec<bool>> = trials
+            .par_iter()
+            .map(|t| {
+                (0..self.views.len())
+                    .map(|v| self.drawn(t, v) != now[v])
+                    .collect()
+            })
+            .collect();
+        // Lower bounds of each trial's (worst error, total error).
+        let mut bounds: Vec<(u32, u64)> = changed
+            .iter()
+            .map(|changed| {
+                let unchanged = (0..errors.len())
+                    .filter(|&v| !changed[v])
+                    .map(|v| errors[v]);
+                unchanged.fold((0, 0), |(w, t), e| (w.max(e), t + u64::from(e)))
+            })
+            .collect();
+        // The lowest score of a trial measured in full, and that trial.
+        let mut best: Option<((u32, u64), usize)> = None;
+        let can_win = |bound: (u32, u64), k: usize, best: Option<((u32, u64), usize)>| {
+            bound < current
+                && best.is_none_or(|(score, lead)| bound < score || (bound == score && k <= lead))
+        };
+        let mut alive: Vec<usize> = (0..trials.len())
+            .filter(|&k| can_win(bounds[k], k, best))
+            .collect();
+        let mut probes = 0;
         let mut start = 0;
         let mut batch = 1;
         while start < order.len() && !alive.is_empty() {
             let views = &order[start..(start + batch).min(order.len())];
             let sets: Vec<&[usize]> = alive.iter().map(|&k| &trials[k][..]).collect();
             self.fill(&sets, views)?;
-            let within: Vec<bool> = alive
+            let measured: Vec<(u32, u64)> = alive
                 .par_iter()
-                .map(|&k| views.iter().all(|&v| self.error(&trials[k], v) <= worst))
+                .map(|&k| {
+                    let changed = views.iter().filter(|&&v| changed[k][v]);
+                    let e = changed.map(|&v| self.error(&trials[k], v));
+                    e.fold((0, 0), |(w, t), e| (w.max(e), t + u64::from(e)))
+                })
                 .collect();
-            let mut within = within.into_iter();
-            alive.retain(|_| within.next().expect("one flag per trial"));
+            for (&k, (w, t)) in alive.iter().zip(measured) {
+                bounds[k] = (bounds[k].0.max(w), bounds[k].1 + t);
+            }
             start += views.len();
             batch *= 2;
+            if probes < MAX_PROBES && start >= PROBE_AFTER_VIEWS && start < order.len() {
+                let lead = alive
+                    .iter()
+                    .copied()
+                    .filter(|&k| best.is_none_or(|(_, lead)| lead != k))
+                    .min_by_key(|&k| (bounds[k], k));
+                if let Some(lead) = lead {
+                    probes += 1;
+                    self.fill(&[&trials[lead][..]], &order[start..])?;
+                    let score = score(&self.errors(&trials[lead]));
+                    if best.is_none_or(|b| (score, lead) < b) {
+                        best = Some((score, lead));
+                    }
+                }
+            }
+            alive.retain(|&k| can_win(bounds[k], k, best));
         }
         Ok(alive)
     }
