@@ -190,9 +190,10 @@ pub(crate) fn shared_models() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
 }
 
-fn median(mut times: Vec<Duration>) -> Duration {
-    times.sort();
-    times[times.len() / 2]
+/// The middle value (the upper one of an even count). Panics on an empty list or a NaN.
+pub(crate) fn median<T: PartialOrd>(mut values: Vec<T>) -> T {
+    values.sort_by(|a, b| a.partial_cmp(b).expect("no NaN among timings"));
+    values.swap_remove(values.len() / 2)
 }
 
 /// Real models of growing size (3.7k to 203k faces) under ../shared/models, for the timing

@@ -8,6 +8,8 @@ use std::time::{Duration, Instant};
 
 use ori_release::{BuildReport, JobStatus, REPORT_JSON};
 
+use crate::bench::median;
+
 /// One cold build of one model: what the child process and its `report.json` say.
 struct ColdBuild {
     faces: usize,
@@ -39,33 +41,57 @@ pub fn run(runs: usize, extra: &[PathBuf]) -> Result<(), String> {
     );
     let mut rows = Vec::new();
     for model in &models {
-        let builds = (0..runs.max(1))
-            .map(|_| cold_build(model))
-            .collect::<Result<Vec<_>, _>>()?;
-        let row = medians(model, &builds)?;
-        print_row(&row, rows.is_empty());
-        rows.push(row);
+        let mut builds = Vec::new();
+        for run in 1..=runs.max(1) {
+            eprintln!("{}: cold build {run} of {runs}", model.display());
+            builds.push(cold_build(model)?);
+        }
+        rows.push(medians(model, &builds)?);
     }
-    print_fits(&rows);
+    let stages = stage_names(&rows);
+    print_rows(&rows, &stages);
+    print_fits(&rows, &stages);
     Ok(())
 }
 
-/// Build `model` alone (its folder as the assets root, only its file included) with a fresh
-/// cache and output folder.
+/// Every stage that ran for some model, in the order they first appear.
+fn stage_names(rows: &[Row]) -> Vec<String> {
+    let mut stages: Vec<String> = Vec::new();
+    for row in rows {
+        for (stage, _) in &row.stages {
+            if !stages.contains(stage) {
+                stages.push(stage.clone());
+            }
+        }
+    }
+    stages
+}
+
+/// A stage's median seconds for one model (0 where it did not run).
+fn stage_seconds(row: &Row, stage: &str) -> f64 {
+    row.stages
+        .iter()
+        .find(|(s, _)| s == stage)
+        .map_or(0.0, |s| s.1)
+}
+
+/// Build `model` alone (its folder as the assets root, only its file included, so that the
+/// files it references resolve) with a fresh cache and output folder.
 fn cold_build(model: &Path) -> Result<ColdBuild, String> {
-    let (root, file) = match (model.parent(), model.file_name()) {
-        (Some(root), Some(file)) => (root, file.to_string_lossy()),
-        _ => return Err(format!("{}: not a model file", model.display())),
-    };
-    let root = root
+    // The real file: the build neither follows a link to it nor takes a bare file name.
+    let model = model
         .canonicalize()
         .map_err(|e| format!("{}: {e}", model.display()))?;
+    let (Some(root), Some(file)) = (model.parent(), model.file_name()) else {
+        return Err(format!("{}: not a model file", model.display()));
+    };
+    let file = file.to_string_lossy();
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
     let config = dir.path().join("pipeline.toml");
     let toml = format!(
         "[assets]\nroot = {}\ninclude = [{}]\n[cache]\ndir = \"cache\"\n[output]\ndir = \"out\"\n",
-        toml_string(&root.to_string_lossy()),
-        toml_string(&globset::escape(&file)),
+        toml::Value::String(root.to_string_lossy().into_owned()),
+        toml::Value::String(globset::escape(&file)),
     );
     std::fs::write(&config, toml).map_err(|e| e.to_string())?;
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
@@ -94,7 +120,11 @@ fn cold_build(model: &Path) -> Result<ColdBuild, String> {
             report.assets.len()
         ));
     };
-    let faces = asset.mesh.as_ref().map_or(0, |m| m.triangles);
+    let faces = asset
+        .mesh
+        .as_ref()
+        .map(|m| m.triangles)
+        .ok_or_else(|| format!("{}: no mesh in {}", model.display(), report_path.display()))?;
     let mut stages: Vec<(String, f64)> = Vec::new();
     for job in asset.jobs.iter().filter(|j| j.status == JobStatus::Ran) {
         match stages.iter_mut().find(|(s, _)| *s == job.stage) {
@@ -110,29 +140,34 @@ fn cold_build(model: &Path) -> Result<ColdBuild, String> {
     })
 }
 
-/// A TOML basic string.
-fn toml_string(s: &str) -> String {
-    serde_json::to_string(s).expect("a string serialises")
-}
-
 /// Wait for the child; its exit status, its peak resident memory where the platform reports
 /// it, and its standard error.
 fn wait_with_peak(mut child: std::process::Child) -> Result<(bool, Option<u64>, String), String> {
     use std::io::Read;
-    let mut stderr = String::new();
+    let mut bytes = Vec::new();
     if let Some(mut pipe) = child.stderr.take() {
-        pipe.read_to_string(&mut stderr)
-            .map_err(|e| e.to_string())?;
+        // An error reading it still leaves the child to reap below.
+        let _ = pipe.read_to_end(&mut bytes);
     }
+    let mut stderr = String::from_utf8_lossy(&bytes).into_owned();
     #[cfg(target_os = "linux")]
     {
         let pid = child.id() as libc::pid_t;
         let mut status: libc::c_int = 0;
         // SAFETY: an all-zero rusage is valid, and `wait4` only writes into the two locals.
         let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-        let reaped = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-        if reaped != pid {
-            return Err(format!("wait4: {}", std::io::Error::last_os_error()));
+        loop {
+            let reaped = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+            if reaped == pid {
+                break;
+            }
+            let error = std::io::Error::last_os_error();
+            if error.kind() != std::io::ErrorKind::Interrupted {
+                return Err(format!("wait4: {error}"));
+            }
+        }
+        if libc::WIFSIGNALED(status) {
+            stderr += &format!("\nkilled by signal {}", libc::WTERMSIG(status));
         }
         let success = libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0;
         // Linux reports ru_maxrss in KiB.
@@ -143,11 +178,6 @@ fn wait_with_peak(mut child: std::process::Child) -> Result<(bool, Option<u64>, 
         let status = child.wait().map_err(|e| e.to_string())?;
         Ok((status.success(), None, stderr))
     }
-}
-
-fn median_of(mut values: Vec<f64>) -> f64 {
-    values.sort_by(f64::total_cmp);
-    values[values.len() / 2]
 }
 
 fn medians(model: &Path, builds: &[ColdBuild]) -> Result<Row, String> {
@@ -171,7 +201,7 @@ fn medians(model: &Path, builds: &[ColdBuild]) -> Result<Row, String> {
                         .map_or(0.0, |s| s.1)
                 })
                 .collect();
-            (stage.clone(), median_of(times))
+            (stage.clone(), median(times))
         })
         .collect();
     let peaks: Option<Vec<f64>> = builds
@@ -183,35 +213,35 @@ fn medians(model: &Path, builds: &[ColdBuild]) -> Result<Row, String> {
             .file_name()
             .map_or_else(String::new, |f| f.to_string_lossy().into_owned()),
         faces: first.faces,
-        wall_s: median_of(builds.iter().map(|b| b.wall.as_secs_f64()).collect()),
-        peak_mib: peaks.map(median_of),
+        wall_s: median(builds.iter().map(|b| b.wall.as_secs_f64()).collect()),
+        peak_mib: peaks.map(median),
         stages,
     })
 }
 
-fn print_row(row: &Row, header: bool) {
-    if header {
+fn print_rows(rows: &[Row], stages: &[String]) {
+    let mut header = format!(
+        "{:<36} {:>8} {:>8} {:>9}",
+        "model", "faces", "total s", "peak MiB"
+    );
+    for stage in stages {
+        header += &format!(" {stage:>8}");
+    }
+    println!("{header}");
+    for row in rows {
         let mut line = format!(
-            "{:<36} {:>8} {:>8} {:>9}",
-            "model", "faces", "total s", "peak MiB"
+            "{:<36} {:>8} {:>8.2} {:>9}",
+            row.name,
+            row.faces,
+            row.wall_s,
+            row.peak_mib
+                .map_or_else(|| "n/a".into(), |m| format!("{m:.0}"))
         );
-        for (stage, _) in &row.stages {
-            line += &format!(" {stage:>8}");
+        for stage in stages {
+            line += &format!(" {:>8.2}", stage_seconds(row, stage));
         }
         println!("{line}");
     }
-    let mut line = format!(
-        "{:<36} {:>8} {:>8.2} {:>9}",
-        row.name,
-        row.faces,
-        row.wall_s,
-        row.peak_mib
-            .map_or_else(|| "n/a".into(), |m| format!("{m:.0}"))
-    );
-    for (_, t) in &row.stages {
-        line += &format!(" {t:>8.2}");
-    }
-    println!("{line}");
 }
 
 /// Least-squares `y = fixed + per_100k * faces / 100,000`.
@@ -227,7 +257,7 @@ fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     })
 }
 
-fn print_fits(rows: &[Row]) {
+fn print_fits(rows: &[Row], stages: &[String]) {
     let per_100k = |faces: usize| faces as f64 / 1e5;
     let mut columns: Vec<(String, Vec<(f64, f64)>)> = vec![(
         "total s".into(),
@@ -241,25 +271,10 @@ fn print_fits(rows: &[Row]) {
                 .collect(),
         ));
     }
-    let mut stages: Vec<&str> = Vec::new();
-    for row in rows {
-        for (stage, _) in &row.stages {
-            if !stages.contains(&stage.as_str()) {
-                stages.push(stage);
-            }
-        }
-    }
     for stage in stages {
         let points = rows
             .iter()
-            .map(|r| {
-                let t = r
-                    .stages
-                    .iter()
-                    .find(|(s, _)| s == stage)
-                    .map_or(0.0, |s| s.1);
-                (per_100k(r.faces), t)
-            })
+            .map(|r| (per_100k(r.faces), stage_seconds(r, stage)))
             .collect();
         columns.push((format!("{stage} s"), points));
     }

@@ -36,7 +36,7 @@
 //!   and elsewhere its errors are the current ones, so each move's score is bounded from
 //!   below as it is measured: in the views it changes, highest current error first, in
 //!   batches of 1, 2, 4, ... views. A move is dropped as soon as its bound reaches the
-//!   current score or exceeds the score of a move already measured in full (after the
+//!   current score or passes the score of a move already measured in full (after the
 //!   first batches, the moves with the lowest bounds are): its masks in the other views are
 //!   never computed. The moves left are scored in full; the choice is the one of scoring
 //!   every move.
@@ -444,7 +444,8 @@ impl Search<'_> {
     /// error is the current one (`errors`), known without a mask. The highest and the sum of
     /// a trial's errors over the views measured so far and the unchanged ones bound its score
     /// from below, so a trial is dropped as soon as that bound reaches `current` (it must score
-    /// lower to be chosen) or exceeds the score of a trial measured in full. Changed views are
+    /// lower to be chosen) or passes the score of a trial measured in full (equals it, for a
+    /// later trial: the earlier wins ties). Changed views are
     /// measured in order of their current `errors`, highest first, in growing batches; after
     /// the first few, the trials with the lowest bounds are measured in full, and their scores
     /// usually drop most of the others before their masks in the other views are computed.
@@ -455,6 +456,8 @@ impl Search<'_> {
         errors: &[u32],
         current: (u32, u64),
     ) -> Result<Vec<usize>, PlaceError> {
+        // Probes cost a trial's masks in every view it changes: after the first three batches
+        // the bounds rank the trials well enough, and more probes rarely drop more (bench place).
         const PROBE_AFTER_VIEWS: usize = 7;
         const MAX_PROBES: usize = 2;
         let mut order: Vec<usize> = (0..self.views.len()).collect();
@@ -462,7 +465,8 @@ impl Search<'_> {
         let now: Vec<Vec<usize>> = (0..self.views.len())
             .map(|v| self.drawn(chosen, v))
             .collect();
-        // changed[k][v]: whether trial k draws other candidates than `chosen` in view v.
+        // changed[k][v]: whether trial k draws other candidates than `chosen` in view v (as
+        // ordered lists; a trial swaps one candidate for one not chosen, so the same as sets).
         let changed: Vec<Vec<bool>> = trials
             .par_iter()
             .map(|t| {
@@ -474,9 +478,9 @@ impl Search<'_> {
         // Lower bounds of each trial's (worst error, total error).
         let mut bounds: Vec<(u32, u64)> = changed
             .iter()
-            .map(|changed| {
+            .map(|changes| {
                 let unchanged = (0..errors.len())
-                    .filter(|&v| !changed[v])
+                    .filter(|&v| !changes[v])
                     .map(|v| errors[v]);
                 unchanged.fold((0, 0), |(w, t), e| (w.max(e), t + u64::from(e)))
             })
@@ -500,8 +504,8 @@ impl Search<'_> {
             let measured: Vec<(u32, u64)> = alive
                 .par_iter()
                 .map(|&k| {
-                    let changed = views.iter().filter(|&&v| changed[k][v]);
-                    let e = changed.map(|&v| self.error(&trials[k], v));
+                    let own = views.iter().filter(|&&v| changed[k][v]);
+                    let e = own.map(|&v| self.error(&trials[k], v));
                     e.fold((0, 0), |(w, t), e| (w.max(e), t + u64::from(e)))
                 })
                 .collect();
