@@ -67,12 +67,9 @@ fn stage_names(rows: &[Row]) -> Vec<String> {
     stages
 }
 
-/// A stage's median seconds for one model (0 where it did not run).
-fn stage_seconds(row: &Row, stage: &str) -> f64 {
-    row.stages
-        .iter()
-        .find(|(s, _)| s == stage)
-        .map_or(0.0, |s| s.1)
+/// A stage's seconds in per-stage times (0 where it did not run).
+fn stage_seconds(stages: &[(String, f64)], stage: &str) -> f64 {
+    stages.iter().find(|(s, _)| s == stage).map_or(0.0, |s| s.1)
 }
 
 /// Build `model` alone (its folder as the assets root, only its file included, so that the
@@ -194,12 +191,7 @@ fn medians(model: &Path, builds: &[ColdBuild]) -> Result<Row, String> {
         .map(|(stage, _)| {
             let times = builds
                 .iter()
-                .map(|b| {
-                    b.stages
-                        .iter()
-                        .find(|(s, _)| s == stage)
-                        .map_or(0.0, |s| s.1)
-                })
+                .map(|b| stage_seconds(&b.stages, stage))
                 .collect();
             (stage.clone(), median(times))
         })
@@ -238,7 +230,7 @@ fn print_rows(rows: &[Row], stages: &[String]) {
                 .map_or_else(|| "n/a".into(), |m| format!("{m:.0}"))
         );
         for stage in stages {
-            line += &format!(" {:>8.2}", stage_seconds(row, stage));
+            line += &format!(" {:>8.2}", stage_seconds(&row.stages, stage));
         }
         println!("{line}");
     }
@@ -263,18 +255,17 @@ fn print_fits(rows: &[Row], stages: &[String]) {
         "total s".into(),
         rows.iter().map(|r| (per_100k(r.faces), r.wall_s)).collect(),
     )];
-    if rows.iter().all(|r| r.peak_mib.is_some()) {
-        columns.push((
-            "peak MiB".into(),
-            rows.iter()
-                .map(|r| (per_100k(r.faces), r.peak_mib.unwrap_or(0.0)))
-                .collect(),
-        ));
+    let peaks: Option<Vec<(f64, f64)>> = rows
+        .iter()
+        .map(|r| r.peak_mib.map(|m| (per_100k(r.faces), m)))
+        .collect();
+    if let Some(peaks) = peaks {
+        columns.push(("peak MiB".into(), peaks));
     }
     for stage in stages {
         let points = rows
             .iter()
-            .map(|r| (per_100k(r.faces), stage_seconds(r, stage)))
+            .map(|r| (per_100k(r.faces), stage_seconds(&r.stages, stage)))
             .collect();
         columns.push((format!("{stage} s"), points));
     }

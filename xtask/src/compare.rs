@@ -150,11 +150,9 @@ fn compare(args: &Args) -> Result<(), Failure> {
     }
     let refs: Vec<&dyn Rival> = all.iter().map(|r| r.as_ref() as &dyn Rival).collect();
 
-    let directions = ori_rivals::held_out_sample(
-        args.held_out_seed,
-        args.directions
-            .unwrap_or(ori_views::HELD_OUT_REGULAR + ori_views::HELD_OUT_RANDOM),
-    );
+    // No count: all of them (the sample takes every direction at or above their number).
+    let directions =
+        ori_rivals::held_out_sample(args.held_out_seed, args.directions.unwrap_or(usize::MAX));
     step(&format!(
         "measuring at {} held-out directions",
         directions.len()

@@ -255,7 +255,7 @@ fn place_scored(
             })
             .collect();
         let survivors = match scoring {
-            Scoring::Screened => search.screen(&chosen, &trials, &errors, current)?,
+            Scoring::Screened => search.screen(&chosen, &trials, &errors)?,
             Scoring::Every => {
                 let sets: Vec<&[usize]> = trials.iter().map(|t| &t[..]).collect();
                 search.fill(&sets, &all)?;
@@ -443,19 +443,19 @@ impl Search<'_> {
     /// filled. A trial changes the drawn candidates of some views only; in the others its
     /// error is the current one (`errors`), known without a mask. The highest and the sum of
     /// a trial's errors over the views measured so far and the unchanged ones bound its score
-    /// from below, so a trial is dropped as soon as that bound reaches `current` (it must score
-    /// lower to be chosen) or passes the score of a trial measured in full (equals it, for a
-    /// later trial: the earlier wins ties). Changed views are
-    /// measured in order of their current `errors`, highest first, in growing batches; after
-    /// the first few, the trials with the lowest bounds are measured in full, and their scores
-    /// usually drop most of the others before their masks in the other views are computed.
+    /// from below, so a trial is dropped as soon as that bound reaches the current score (it
+    /// must score lower to be chosen) or passes the score of a trial measured in full (equals
+    /// it, for a later trial: the earlier wins ties). Changed views are measured in order of
+    /// their current `errors`, highest first, in growing batches; after the first few, the
+    /// trials with the lowest bounds are measured in full, and their scores usually drop most
+    /// of the others before their masks in the other views are computed.
     fn screen(
         &mut self,
         chosen: &[usize],
         trials: &[Vec<usize>],
         errors: &[u32],
-        current: (u32, u64),
     ) -> Result<Vec<usize>, PlaceError> {
+        let current = score(errors);
         // Probes cost a trial's masks in every view it changes: after the first three batches
         // the bounds rank the trials well enough, and more probes rarely drop more (bench place).
         const PROBE_AFTER_VIEWS: usize = 7;
