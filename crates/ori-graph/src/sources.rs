@@ -19,6 +19,7 @@ use std::fs;
 use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
@@ -180,6 +181,14 @@ fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize) {
     let Ok(bytes) = fs::read(path) else {
         return (BTreeMap::new(), 0);
     };
+    // Usually every entry is whole: take them in one pass, and look at each one apart only
+    // when some is not.
+    if let Ok(mut memo) = serde_json::from_slice::<BTreeMap<PathBuf, MemoEntry>>(&bytes) {
+        let before = memo.len();
+        memo.retain(|file, e| e.seal == seal(file, &e.stamp, &e.hash));
+        let dropped = before - memo.len();
+        return (memo, dropped);
+    }
     let Ok(entries) = serde_json::from_slice::<BTreeMap<PathBuf, serde_json::Value>>(&bytes) else {
         return (BTreeMap::new(), 1);
     };
@@ -209,6 +218,8 @@ pub struct SourceHasher {
     dropped: usize,
     /// Files hashed by reading them (not from the memo) during this build.
     rehashed: Mutex<u64>,
+    /// Whether an entry was added or removed since loading (else saving has nothing to add).
+    changed: AtomicBool,
 }
 
 impl SourceHasher {
@@ -222,6 +233,7 @@ impl SourceHasher {
             memo: Mutex::new(memo),
             dropped,
             rehashed: Mutex::new(0),
+            changed: AtomicBool::new(false),
         }
     }
 
@@ -260,7 +272,9 @@ impl SourceHasher {
 
     /// Drop what is memoised for `path` (its bytes did not match), so the next build reads it.
     pub fn forget(&self, path: &Path) {
-        self.memo.lock().unwrap().remove(path);
+        if self.memo.lock().unwrap().remove(path).is_some() {
+            self.changed.store(true, Ordering::Relaxed);
+        }
     }
 
     /// Record the hash of bytes just read from `path` (stat taken before the read).
@@ -270,6 +284,7 @@ impl SourceHasher {
             .lock()
             .unwrap()
             .insert(path.to_path_buf(), MemoEntry { stamp, hash, seal });
+        self.changed.store(true, Ordering::Relaxed);
     }
 
     /// How many files were read and hashed (memo misses) so far.
@@ -278,8 +293,12 @@ impl SourceHasher {
     }
 
     /// Write the memo back, merged with the intact entries another builder may have saved
-    /// meanwhile, leaving out racily recent files.
+    /// meanwhile, leaving out racily recent files. Nothing is written when no entry changed
+    /// and none was dropped as damaged: the file already says what the memo knows.
     pub fn save(&self) -> io::Result<()> {
+        if !self.changed.load(Ordering::Relaxed) && self.dropped == 0 {
+            return Ok(());
+        }
         let now = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default()

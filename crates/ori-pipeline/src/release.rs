@@ -8,6 +8,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use ori_graph::{BlobRef, ContentHash, SourceHasher, SourceRules};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use walkdir::WalkDir;
 
@@ -18,7 +19,7 @@ pub struct BuiltPackage<'a> {
     pub name: String,
     pub blob: BlobRef,
     /// The bytes, verified against `blob`.
-    pub read: Box<dyn Fn() -> Result<Vec<u8>, String> + 'a>,
+    pub read: Box<dyn Fn() -> Result<Vec<u8>, String> + Send + Sync + 'a>,
 }
 
 /// What a release entry says about a package's content, found by checking the package as a
@@ -148,41 +149,26 @@ pub fn write(
 ) -> Result<Written, (PathBuf, String)> {
     let mut warnings = Vec::new();
     let previous = previous_packages(dir, &mut warnings);
-    let mut assets = Vec::new();
     let mut seen = BTreeSet::new();
     for p in packages {
-        let name = &p.name;
-        let fail = |m: String| (PathBuf::from(name), m);
-        let mut bytes = None;
-        let checked = match memo.checked(&p.blob) {
-            Some(c) => c,
-            None => {
-                let b = (p.read)().map_err(fail)?;
-                let c = check(&b).map_err(fail)?;
-                memo.remember(&c, &p.blob.hash);
-                bytes = Some(b);
-                c
-            }
-        };
-        let e = entry_of(name, checked).map_err(fail)?;
-        if !seen.insert(e.package.clone()) {
+        let package = package_path(&p.name);
+        if seen.contains(&package) {
             return Err((
-                dir.join(&e.package),
-                format!("two assets would write this package (the second is {name}); rename one"),
+                dir.join(&package),
+                format!(
+                    "two assets would write this package (the second is {}); rename one",
+                    p.name
+                ),
             ));
         }
-        let path = dir.join(&e.package);
-        if !memo.holds(&path, &p.blob) {
-            let bytes = match bytes {
-                Some(b) => b,
-                None => (p.read)().map_err(fail)?,
-            };
-            ori_graph::write_atomic(&path, &bytes)
-                .map_err(|err| (path.clone(), format!("cannot write: {err}")))?;
-            memo.files.forget(&path);
-        }
-        assets.push(e);
+        seen.insert(package);
     }
+    // Packages are checked and written in parallel, each read only when the memos do not
+    // know its check or that its file already holds it.
+    let placed: Vec<Result<ReleaseEntry, _>> =
+        packages.par_iter().map(|p| place(dir, p, memo)).collect();
+    // The first failure in asset order, whatever order the threads met them in.
+    let assets = placed.into_iter().collect::<Result<Vec<_>, _>>()?;
     for stale in previous.difference(&seen) {
         let path = dir.join(stale);
         if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
@@ -224,6 +210,42 @@ pub fn write(
     Ok(Written { release, warnings })
 }
 
+/// A package's release entry, its file in `dir` written unless it already holds the
+/// package. The package is checked (from the memo when it knows the content) and the file
+/// compared (from the stat memo when the file is unchanged); the bytes are read only when
+/// one of the two needs them.
+fn place(
+    dir: &Path,
+    p: &BuiltPackage<'_>,
+    memo: &ReleaseMemo,
+) -> Result<ReleaseEntry, (PathBuf, String)> {
+    let name = &p.name;
+    let fail = |m: String| (PathBuf::from(name), m);
+    let mut bytes = None;
+    let checked = match memo.checked(&p.blob) {
+        Some(c) => c,
+        None => {
+            let b = (p.read)().map_err(fail)?;
+            let c = check(&b).map_err(fail)?;
+            memo.remember(&c, &p.blob.hash);
+            bytes = Some(b);
+            c
+        }
+    };
+    let entry = entry_of(name, checked).map_err(fail)?;
+    let path = dir.join(&entry.package);
+    if !memo.holds(&path, &p.blob) {
+        let bytes = match bytes {
+            Some(b) => b,
+            None => (p.read)().map_err(fail)?,
+        };
+        ori_graph::write_atomic(&path, &bytes)
+            .map_err(|err| (path.clone(), format!("cannot write: {err}")))?;
+        memo.files.forget(&path);
+    }
+    Ok(entry)
+}
+
 /// The packages the folder's `release.json` lists, which this builder wrote. Only entries
 /// whose package path is the one their name gives (relative, no `..`, ending in `.ori`) are
 /// taken, so a damaged or hostile index cannot name a file elsewhere.
@@ -258,11 +280,13 @@ fn owned_package_path(package: &str) -> bool {
             .all(|c| !c.is_empty() && c != "." && c != "..")
 }
 
-/// `.ori` files under `dir`, relative, `/` separators, sorted.
+/// `.ori` files under `dir`, relative, `/` separators, sorted; the report's folder (its
+/// pictures, no package) is not searched.
 fn ori_files(dir: &Path) -> BTreeSet<String> {
     WalkDir::new(dir)
         .sort_by_file_name()
         .into_iter()
+        .filter_entry(|e| !(e.depth() == 1 && e.file_name() == ori_release::REPORT_DIR))
         .filter_map(Result::ok)
         .filter(|e| e.file_type().is_file() && e.path().extension().is_some_and(|x| x == "ori"))
         .filter_map(|e| {

@@ -8,6 +8,7 @@ use ori_release::{
     AssetReport, AssetStatus, AutoReport, BuildReport, HeldOutReport, JobReport, JobStatus,
     MeshSummary, QualityReport,
 };
+use rayon::prelude::*;
 
 use crate::plan::AssetJobs;
 use crate::release::BuiltPackage;
@@ -100,7 +101,8 @@ fn quality(build: &Build<'_>, jobs: &AssetJobs, seed: u64) -> Result<QualityRepo
 }
 
 /// Read every asset's results from the final run. `resolutions`, `seeds` (of the held-out
-/// directions) and `auto` are per asset, in the order of `jobs`.
+/// directions) and `auto` are per asset, in the order of `jobs`. Assets are read in parallel
+/// and listed in order.
 pub fn collect<'a>(
     graph: &Graph,
     build: &'a Build<'_>,
@@ -110,82 +112,115 @@ pub fn collect<'a>(
     auto: &[Option<AutoReport>],
     reading: &Reading<'_>,
 ) -> Collected<'a> {
-    let mut report = BuildReport::default();
+    let assets: Vec<(AssetReport, Option<BuiltPackage<'a>>, usize)> = jobs
+        .par_iter()
+        .enumerate()
+        .map(|(index, j)| {
+            let built = Built {
+                resolution: resolutions[index],
+                seed: seeds[index],
+                auto: auto[index].clone(),
+            };
+            collect_asset(graph, build, j, built, reading)
+        })
+        .collect();
+    let mut collected = Collected {
+        report: BuildReport::default(),
+        packages: Vec::new(),
+        unreadable: 0,
+    };
+    for (entry, package, unreadable) in assets {
+        collected.report.assets.push(entry);
+        collected.packages.extend(package);
+        collected.unreadable += unreadable;
+    }
+    collected
+}
+
+/// What the build decided for an asset, beside its jobs.
+struct Built {
+    resolution: u32,
+    seed: u64,
+    auto: Option<AutoReport>,
+}
+
+/// One asset's report entry, its package if it built, and how many of its outputs could not
+/// be read back.
+fn collect_asset<'a>(
+    graph: &Graph,
+    build: &'a Build<'_>,
+    j: &AssetJobs,
+    built: Built,
+    reading: &Reading<'_>,
+) -> (AssetReport, Option<BuiltPackage<'a>>, usize) {
     let mut unreadable = 0;
-    let mut packages = Vec::new();
-    for (index, j) in jobs.iter().enumerate() {
-        let (status, error) = asset_status(graph, build, j);
-        let ingest = build.result(j.ingest);
-        let mut entry = AssetReport {
-            name: j.asset.name.clone(),
-            status,
-            error,
-            warnings: j
-                .all()
-                .iter()
-                .flat_map(|&id| build.result(id).warnings.clone())
-                .collect(),
-            mesh: None,
-            mesh_hash: ingest.outputs.get(MESH.name).map(|b| b.hash.to_hex()),
-            maps_hash: build
-                .result(j.bake)
-                .outputs
-                .get(MAPS.name)
-                .map(|b| b.hash.to_hex()),
-            quality: None,
-            resolution: resolutions[index],
-            auto_resolution: auto[index].clone(),
-            jobs: j
-                .all()
-                .iter()
-                .map(|&id| {
-                    let r = build.result(id);
-                    JobReport {
-                        stage: graph.job(id).stage.name().to_string(),
-                        status: job_status(&r.outcome),
-                        seconds: r.duration.as_secs_f64(),
-                    }
-                })
-                .collect(),
-        };
-        let mut fail = |entry: &mut AssetReport, e: String| {
-            unreadable += 1;
-            entry.status = AssetStatus::Failed;
-            entry.error = Some(e);
-        };
-        let readable = status == AssetStatus::Ok && reading.outputs;
-        if readable {
-            let package = j.package;
-            let blob = build.result(package).outputs.get(PACKAGE.name).cloned();
-            let blob = blob.ok_or_else(|| format!("output `{}` is missing", PACKAGE.name));
-            match quality(build, j, seeds[index]).and_then(|q| Ok((q, blob?))) {
-                Ok((q, blob)) => {
-                    entry.quality = Some(q);
-                    packages.push(BuiltPackage {
-                        name: j.asset.name.clone(),
-                        blob,
-                        read: Box::new(move || PACKAGE.read_from(build, package).map(|p| p.0)),
-                    });
+    let mut package = None;
+    let (status, error) = asset_status(graph, build, j);
+    let ingest = build.result(j.ingest);
+    let mut entry = AssetReport {
+        name: j.asset.name.clone(),
+        status,
+        error,
+        warnings: j
+            .all()
+            .iter()
+            .flat_map(|&id| build.result(id).warnings.clone())
+            .collect(),
+        mesh: None,
+        mesh_hash: ingest.outputs.get(MESH.name).map(|b| b.hash.to_hex()),
+        maps_hash: build
+            .result(j.bake)
+            .outputs
+            .get(MAPS.name)
+            .map(|b| b.hash.to_hex()),
+        quality: None,
+        resolution: built.resolution,
+        auto_resolution: built.auto,
+        jobs: j
+            .all()
+            .iter()
+            .map(|&id| {
+                let r = build.result(id);
+                JobReport {
+                    stage: graph.job(id).stage.name().to_string(),
+                    status: job_status(&r.outcome),
+                    seconds: r.duration.as_secs_f64(),
                 }
-                Err(e) => fail(&mut entry, e),
+            })
+            .collect(),
+    };
+    let mut fail = |entry: &mut AssetReport, e: String| {
+        unreadable += 1;
+        entry.status = AssetStatus::Failed;
+        entry.error = Some(e);
+    };
+    let readable = status == AssetStatus::Ok && reading.outputs;
+    if readable {
+        let job = j.package;
+        let blob = build.result(job).outputs.get(PACKAGE.name).cloned();
+        let blob = blob.ok_or_else(|| format!("output `{}` is missing", PACKAGE.name));
+        match quality(build, j, built.seed).and_then(|q| Ok((q, blob?))) {
+            Ok((q, blob)) => {
+                entry.quality = Some(q);
+                package = Some(BuiltPackage {
+                    name: j.asset.name.clone(),
+                    blob,
+                    read: Box::new(move || PACKAGE.read_from(build, job).map(|p| p.0)),
+                });
             }
+            Err(e) => fail(&mut entry, e),
         }
-        if let Some(dir) = reading.dump_maps.filter(|_| readable)
-            && let Err(e) = crate::outputs::dump_maps(build, j, dir)
-        {
-            fail(&mut entry, e);
-        }
-        if reading.outputs && matches!(ingest.outcome, Outcome::Reused | Outcome::Ran(_)) {
-            match build.read_output(j.ingest, SUMMARY.name) {
-                Ok(bytes) => entry.mesh = MeshSummary::decode(&bytes).ok(),
-                Err(e) => fail(&mut entry, e.to_string()),
-            }
-        }
-        report.assets.push(entry);
     }
-    Collected {
-        report,
-        packages,
-        unreadable,
+    if let Some(dir) = reading.dump_maps.filter(|_| readable)
+        && let Err(e) = crate::outputs::dump_maps(build, j, dir)
+    {
+        fail(&mut entry, e);
     }
+    if reading.outputs && matches!(ingest.outcome, Outcome::Reused | Outcome::Ran(_)) {
+        match build.read_output(j.ingest, SUMMARY.name) {
+            Ok(bytes) => entry.mesh = MeshSummary::decode(&bytes).ok(),
+            Err(e) => fail(&mut entry, e.to_string()),
+        }
+    }
+    (entry, package, unreadable)
 }

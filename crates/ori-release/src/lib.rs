@@ -11,6 +11,8 @@ use serde::{Deserialize, Serialize};
 pub const RELEASE_JSON: &str = "release.json";
 /// The name of the build log in the output folder.
 pub const REPORT_JSON: &str = "report.json";
+/// The folder of the HTML report in the output folder (it holds no package).
+pub const REPORT_DIR: &str = "report";
 
 /// `release.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
