@@ -179,6 +179,28 @@ fn a_rebuild_redraws_only_the_pictures_of_what_changed() {
     }
     let html = fs::read_to_string(p.path("out/report/index.html")).unwrap();
     assert!(html.contains("front-ori.png") && !html.contains("changed since"));
+
+    // An asset added before the others in the table: their pictures stay where they are,
+    // undrawn; removed again, its pictures go with it.
+    let after_edit: Vec<_> = folders.iter().map(|(_, f)| modified(f)).collect();
+    common::copy_dir(
+        &p.path("assets/box-vertex-colors"),
+        &p.path("assets/a-first"),
+    );
+    ok(&p.build_with_report(&[]));
+    let with_added = picture_folders(&p);
+    assert_eq!(with_added.len(), 3);
+    assert_eq!(with_added[0].0, "a-first/BoxVertexColors.glb");
+    assert_eq!(&with_added[1..], folders.as_slice());
+    let still: Vec<_> = folders.iter().map(|(_, f)| modified(f)).collect();
+    assert_eq!(
+        still, after_edit,
+        "pictures redrawn after an asset was added"
+    );
+    fs::remove_dir_all(p.path("assets/a-first")).unwrap();
+    ok(&p.build_with_report(&[]));
+    assert_eq!(picture_folders(&p), folders);
+    assert!(!p.path(&format!("out/report/{}", with_added[0].1)).exists());
 }
 
 #[test]

@@ -219,6 +219,7 @@ fn folders(
     config: &std::path::Path,
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
+    cache: Option<PathBuf>,
 ) -> Result<
     (
         PathBuf,
@@ -233,6 +234,11 @@ fn folders(
     let access = ori_report::SourceAccess {
         rules: c.limits.source_rules(&assets).map_err(|e| e.to_string())?,
         limits: c.limits.mesh(),
+        stat_memo: Some(
+            cache
+                .unwrap_or_else(|| c.resolve(&c.cache.dir))
+                .join(ori_report::STAT_MEMO),
+        ),
     };
     let options = ori_report::ReportOptions {
         compare_directions: c.compare.directions(),
@@ -251,8 +257,9 @@ fn write_report(
     config: &std::path::Path,
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
+    cache: Option<PathBuf>,
 ) -> Result<PathBuf, String> {
-    let (out, assets, access, options) = folders(config, out, assets)?;
+    let (out, assets, access, options) = folders(config, out, assets, cache)?;
     let written = ori_report::write_report(&out, &assets, &access, &options)?;
     if written.invalid_packages.is_empty() {
         return Ok(written.index);
@@ -270,7 +277,7 @@ fn write_report(
 
 /// Exit status 0: report written; 1: it could not be, or a package in the folder is invalid.
 fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf>) -> ExitCode {
-    match write_report(config, dir, assets) {
+    match write_report(config, dir, assets, None) {
         Ok(index) => {
             println!("report: {}", index.display());
             ExitCode::SUCCESS
@@ -303,8 +310,12 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
         ProgressMode::detect()
     };
     let want_report = !(args.no_report || args.dry_run || args.shard.is_some());
-    let (config_path, out_arg, assets_arg) =
-        (args.config.clone(), args.out.clone(), args.assets.clone());
+    let (config_path, out_arg, assets_arg, cache_arg) = (
+        args.config.clone(),
+        args.out.clone(),
+        args.assets.clone(),
+        args.cache.clone(),
+    );
     let gpu_select = match args.backend {
         Backend::Cpu => None,
         Backend::Gpu => match ori_pipeline::gpu_select::renderer() {
@@ -343,7 +354,7 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
             println!("{}", format_summary(&summary));
             if want_report {
                 let started = std::time::Instant::now();
-                match write_report(&config_path, out_arg, assets_arg) {
+                match write_report(&config_path, out_arg, assets_arg, cache_arg) {
                     Ok(index) => println!(
                         "html report: {} ({:.2} s)",
                         index.display(),

@@ -71,7 +71,54 @@ window.addEventListener('load', function () {
 });
 ";
 
-pub fn page(report: &ReportSummary) -> String {
+/// The report's first page: the summary of every asset, then the first assets' sections.
+pub const INDEX: &str = "index.html";
+
+/// Asset sections per page: a catalogue's pictures are split over pages that open quickly.
+pub const ASSETS_PER_PAGE: usize = 50;
+
+/// The file of page `k` (1: the index).
+pub fn page_file(k: usize) -> String {
+    if k <= 1 {
+        INDEX.to_string()
+    } else {
+        format!("assets-{k}.html")
+    }
+}
+
+/// Where asset `i`'s section is, from any page.
+fn asset_link(i: usize) -> String {
+    format!("{}#asset{i}", page_file(i / ASSETS_PER_PAGE + 1))
+}
+
+/// Every page of the report: (file name, HTML), the index first.
+pub fn pages(report: &ReportSummary) -> Vec<(String, String)> {
+    let count = report.assets.len().div_ceil(ASSETS_PER_PAGE).max(1);
+    (1..=count)
+        .map(|k| (page_file(k), page(report, k, count)))
+        .collect()
+}
+
+/// Links to every page of asset sections.
+fn page_links(h: &mut String, report: &ReportSummary, current: usize, count: usize) {
+    if count <= 1 {
+        return;
+    }
+    h.push_str("<p class=\"pages\">Assets: ");
+    for k in 1..=count {
+        let first = (k - 1) * ASSETS_PER_PAGE;
+        let last = (k * ASSETS_PER_PAGE).min(report.assets.len());
+        let label = format!("{}-{last}", first + 1);
+        if k == current {
+            let _ = write!(h, "<b>{label}</b> ");
+        } else {
+            let _ = write!(h, "<a href=\"{}\">{label}</a> ", page_file(k));
+        }
+    }
+    h.push_str("</p>\n");
+}
+
+fn page(report: &ReportSummary, k: usize, count: usize) -> String {
     let mut h = String::new();
     let n = report.assets.len();
     let failed = report.assets.iter().filter(|a| a.status != "ok").count();
@@ -79,18 +126,41 @@ pub fn page(report: &ReportSummary) -> String {
         h,
         "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
          <title>ORI build report</title><style>{STYLE}</style></head><body>\n\
-         <h1>ORI build report</h1>\n<p class=\"muted\">{n} asset(s), {failed} failed. \
+         <h1>ORI build report</h1>\n"
+    );
+    let sections = (k - 1) * ASSETS_PER_PAGE..(k * ASSETS_PER_PAGE).min(n);
+    if k > 1 {
+        let _ = writeln!(
+            h,
+            "<p class=\"muted\"><a href=\"{INDEX}\">Summary of all {n} assets</a>; \
+             this page: assets {} to {}.</p>",
+            sections.start + 1,
+            sections.end
+        );
+        page_links(&mut h, report, k, count);
+        for i in sections {
+            asset_section(&mut h, i, &report.assets[i]);
+        }
+        page_links(&mut h, report, k, count);
+        let _ = writeln!(h, "<script>{SCRIPT}</script>\n</body></html>");
+        return h;
+    }
+    let _ = writeln!(
+        h,
+        "<p class=\"muted\">{n} asset(s), {failed} failed. \
          Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, at the \
          held-out directions (none of which a stage chose anything at; table: at the 320 \
          directions of the selection table). PLT: the largest on-screen size (pixels) the ORI \
          may be drawn at, from the worst held-out view. p_dif: mean colour error (0-765) over \
          the four comparison views. \
-         Click a column to sort.</p>\n"
+         Click a column to sort.</p>"
     );
     summary_table(&mut h, report);
-    for (i, a) in report.assets.iter().enumerate() {
-        asset_section(&mut h, i, a);
+    page_links(&mut h, report, k, count);
+    for i in sections {
+        asset_section(&mut h, i, &report.assets[i]);
     }
+    page_links(&mut h, report, k, count);
     let _ = writeln!(h, "<script>{SCRIPT}</script>\n</body></html>");
     h
 }
@@ -138,7 +208,8 @@ fn summary_table(h: &mut String, report: &ReportSummary) {
         };
         let _ = write!(
             h,
-            "<tr{class}><td><a href=\"#asset{i}\">{}</a></td>",
+            "<tr{class}><td><a href=\"{}\">{}</a></td>",
+            asset_link(i),
             esc(&a.name)
         );
         let int = |v: Option<u64>| opt(v.map(|v| v as f64), 0);
@@ -360,4 +431,45 @@ fn histogram(h: &mut String, counts: &[u64]) {
         );
     }
     h.push_str("</svg>");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_catalogue_is_split_into_pages_and_every_link_finds_its_asset() {
+        let n = 2 * ASSETS_PER_PAGE + 3;
+        let report = ReportSummary {
+            assets: (0..n)
+                .map(|i| AssetSummary {
+                    name: format!("f/{i:04}.obj"),
+                    status: "ok".into(),
+                    ..AssetSummary::default()
+                })
+                .collect(),
+        };
+        let pages = pages(&report);
+        assert_eq!(pages.len(), 3);
+        assert_eq!(pages[0].0, INDEX);
+        let index = &pages[0].1;
+        for i in 0..n {
+            let link = asset_link(i);
+            assert!(index.contains(&format!("href=\"{link}\"")), "{link}");
+            let (file, anchor) = link.split_once('#').unwrap();
+            let holders: Vec<&str> = pages
+                .iter()
+                .filter(|(_, html)| html.contains(&format!("id=\"{anchor}\"")))
+                .map(|(f, _)| f.as_str())
+                .collect();
+            assert_eq!(holders, [file], "asset {i}");
+        }
+        // One page, as before, for a small build.
+        let small = ReportSummary {
+            assets: report.assets[..3].to_vec(),
+        };
+        let pages = super::pages(&small);
+        assert_eq!(pages.len(), 1);
+        assert!(!pages[0].1.contains("assets-2.html"));
+    }
 }

@@ -18,6 +18,7 @@ mod html;
 mod pictures;
 mod relief;
 
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use ori_eval::{EvalParams, Evaluator};
@@ -34,6 +35,40 @@ pub use relief::relief_set;
 pub struct SourceAccess {
     pub rules: ori_graph::SourceRules,
     pub limits: ori_mesh::Limits,
+    /// A stat memo of the sources' hashes kept between reports (in the build's cache folder),
+    /// so that a report whose sources are unchanged does not read them; `None`: read them.
+    pub stat_memo: Option<PathBuf>,
+}
+
+/// Source hashes, from the stat memo where there is one.
+struct SourceHashes<'a> {
+    access: &'a SourceAccess,
+    memo: Option<ori_graph::SourceHasher>,
+}
+
+impl<'a> SourceHashes<'a> {
+    fn open(access: &'a SourceAccess) -> SourceHashes<'a> {
+        let memo = access
+            .stat_memo
+            .as_ref()
+            .map(|path| ori_graph::SourceHasher::new(path.clone(), access.rules.clone()));
+        SourceHashes { access, memo }
+    }
+
+    /// The blake3 of a source file's content; `None` when it cannot be read.
+    fn hash(&self, path: &Path) -> Option<blake3::Hash> {
+        match &self.memo {
+            Some(memo) => Some(blake3::Hash::from_bytes(memo.hash(path).ok()??.0)),
+            None => Some(blake3::hash(&self.access.read(path).ok()?)),
+        }
+    }
+
+    /// Keep the memo for the next report; failing costs only a re-read next time.
+    fn save(&self) {
+        if let Some(memo) = &self.memo {
+            let _ = memo.save();
+        }
+    }
 }
 
 impl SourceAccess {
@@ -75,6 +110,9 @@ const VIEWS: [(&str, [f64; 3]); 4] = [
     ("oblique", [-0.48, 0.36, -0.8]),
 ];
 
+/// The report's stat memo of source hashes, in the build's cache folder.
+pub const STAT_MEMO: &str = "report-stat-memo.json";
+
 /// Edge of the comparison pictures (whatever s0 the selection used: they are for people).
 const PICTURE_SIZE: u32 = 256;
 
@@ -103,16 +141,16 @@ struct Drawn {
 fn stamp(
     package_blake3: &str,
     source: &Path,
-    access: &SourceAccess,
+    sources: &SourceHashes<'_>,
     options: &ReportOptions,
 ) -> Option<String> {
-    let source = access.read(source).ok()?;
+    let source = sources.hash(source)?;
     let mut h = blake3::Hasher::new();
     h.update(&PICTURES_VERSION.to_le_bytes());
     let compare = options.compare_directions.map_or(0, |n| n as u64 + 1);
     h.update(&compare.to_le_bytes());
     h.update(package_blake3.as_bytes());
-    h.update(blake3::hash(&source).as_bytes());
+    h.update(source.as_bytes());
     Some(h.finalize().to_hex().to_string())
 }
 
@@ -195,33 +233,76 @@ pub fn write_report(
 ) -> Result<Written, String> {
     let build: BuildReport = read_json(&out_dir.join(REPORT_JSON))?;
     let release: Release = read_json(&out_dir.join(RELEASE_JSON))?;
-    let dir = out_dir.join("report");
+    let dir = out_dir.join(ori_release::REPORT_DIR);
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let entries: HashMap<&str, &ReleaseEntry> = release
+        .assets
+        .iter()
+        .map(|e| (e.name.as_str(), e))
+        .collect();
+    let sources = SourceHashes::open(access);
+    let place = Place {
+        out_dir,
+        assets_root,
+        dir: &dir,
+        access,
+        sources: &sources,
+        options,
+    };
     let summaries: Vec<AssetSummary> = build
         .assets
         .par_iter()
-        .enumerate()
-        .map(|(i, a)| {
-            let place = Place {
-                out_dir,
-                assets_root,
-                dir: &dir,
-                access,
-                options,
-            };
-            asset_summary(i, a, &release, &place)
-        })
+        .map(|a| asset_summary(a, entries.get(a.name.as_str()).copied(), &place))
         .collect();
+    sources.save();
+    remove_unused_picture_folders(&dir, &summaries);
     let invalid_packages = summaries.iter().filter_map(|s| s.invalid.clone()).collect();
     let summary = ReportSummary { assets: summaries };
     let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
     write_file(&dir.join("report.json"), &json)?;
-    let index = dir.join("index.html");
-    write_file(&index, html::page(&summary).as_bytes())?;
+    let pages = html::pages(&summary);
+    remove_unused_pages(&dir, pages.len());
+    for (file, page) in &pages {
+        write_file(&dir.join(file), page.as_bytes())?;
+    }
     Ok(Written {
-        index,
+        index: dir.join(html::INDEX),
         invalid_packages,
     })
+}
+
+/// The folder of an asset's pictures, under the report folder: named after the asset, so that
+/// adding or removing other assets leaves it (and its pictures) where it is.
+fn picture_folder(asset: &str) -> String {
+    format!("a-{}", &blake3::hash(asset.as_bytes()).to_hex()[..16])
+}
+
+/// Remove the picture folders (those holding a `pictures.json`) of assets no longer in the
+/// report; a failure leaves a folder behind, which costs only disk.
+fn remove_unused_picture_folders(dir: &Path, summaries: &[AssetSummary]) {
+    let used: HashSet<String> = summaries.iter().map(|s| picture_folder(&s.name)).collect();
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.filter_map(Result::ok) {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        let ours =
+            entry.file_type().is_ok_and(|t| t.is_dir()) && path.join("pictures.json").is_file();
+        if ours && !used.contains(&name) {
+            let _ = std::fs::remove_dir_all(&path);
+        }
+    }
+}
+
+/// Remove the asset pages beyond the `count` pages this report has (from a larger build).
+fn remove_unused_pages(dir: &Path, count: usize) {
+    for k in count + 1.. {
+        let path = dir.join(html::page_file(k));
+        if std::fs::remove_file(&path).is_err() {
+            break;
+        }
+    }
 }
 
 /// A JSON file of the output folder, read with its type.
@@ -272,21 +353,18 @@ struct Place<'a> {
     assets_root: &'a Path,
     dir: &'a Path,
     access: &'a SourceAccess,
+    sources: &'a SourceHashes<'a>,
     options: &'a ReportOptions,
 }
 
-fn asset_summary(
-    index: usize,
-    a: &AssetReport,
-    release: &Release,
-    place: &Place<'_>,
-) -> AssetSummary {
+fn asset_summary(a: &AssetReport, entry: Option<&ReleaseEntry>, place: &Place<'_>) -> AssetSummary {
     let Place {
         out_dir,
         assets_root,
         dir,
-        access,
+        sources,
         options,
+        ..
     } = *place;
     let name = a.name.clone();
     let q = a.quality.as_ref();
@@ -318,15 +396,15 @@ fn asset_summary(
             .collect(),
         ..AssetSummary::default()
     };
-    let Some(entry) = release.assets.iter().find(|e| e.name == name) else {
+    let Some(entry) = entry else {
         return s;
     };
     s.package = Some(entry.package.clone());
     s.package_bytes = Some(entry.bytes);
     s.texture_bytes = Some(entry.texture_bytes);
     let package_path = out_dir.join(&entry.package);
-    let folder = format!("a{index:03}");
-    let stamp = stamp(&entry.blake3, &assets_root.join(&name), access, options);
+    let folder = picture_folder(&name);
+    let stamp = stamp(&entry.blake3, &assets_root.join(&name), sources, options);
     // Pictures are reused only while the package file is the one they were drawn from (its
     // size as listed, not written since); any other package is checked in full first.
     if let Some(d) = stamp

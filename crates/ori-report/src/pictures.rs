@@ -1,6 +1,7 @@
 //! The pictures of one asset, drawn with the CPU evaluator from the package's decoded maps.
 
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 
 use ori_eval::{Evaluator, Render, Shading, ViewErrors};
 use ori_mesh::Mesh;
@@ -198,23 +199,46 @@ pub fn error_colour(percent: f64, goal: f64) -> [u8; 3] {
 pub fn sphere_picture(directions: &[[f64; 3]], percent: &[f64], goal: f64, width: u32) -> Picture {
     let height = width / 2;
     let mut p = Picture::new(width, height, [255; 3]);
+    let nearest = nearest_directions(directions, width);
+    for y in 0..height {
+        for x in 0..width {
+            let i = nearest[(y * width + x) as usize];
+            p.set(x, y, error_colour(percent[i as usize], goal));
+        }
+    }
+    p
+}
+
+/// For each pixel of the sphere picture, the direction nearest to it (the last of equals).
+/// Every asset's picture uses the same directions, so the last map made is kept.
+fn nearest_directions(directions: &[[f64; 3]], width: u32) -> Arc<Vec<u32>> {
+    type Kept = Option<(Vec<[f64; 3]>, u32, Arc<Vec<u32>>)>;
+    static KEPT: Mutex<Kept> = Mutex::new(None);
+    if let Some((d, w, map)) = &*KEPT.lock().unwrap()
+        && d.as_slice() == directions
+        && *w == width
+    {
+        return map.clone();
+    }
+    let height = width / 2;
+    let mut map = Vec::with_capacity((width * height) as usize);
     for y in 0..height {
         let lat = std::f64::consts::PI * (0.5 - (f64::from(y) + 0.5) / f64::from(height));
         for x in 0..width {
             let lon = std::f64::consts::TAU * ((f64::from(x) + 0.5) / f64::from(width))
                 - std::f64::consts::PI;
             let w = [lat.cos() * lon.sin(), lat.sin(), lat.cos() * lon.cos()];
-            let nearest = directions
-                .iter()
-                .enumerate()
-                .max_by(|a, b| {
-                    let da = a.1[0] * w[0] + a.1[1] * w[1] + a.1[2] * w[2];
-                    let db = b.1[0] * w[0] + b.1[1] * w[1] + b.1[2] * w[2];
-                    da.total_cmp(&db)
-                })
-                .map_or(0, |(i, _)| i);
-            p.set(x, y, error_colour(percent[nearest], goal));
+            let mut best = (0, f64::NEG_INFINITY);
+            for (i, d) in directions.iter().enumerate() {
+                let dot = d[0] * w[0] + d[1] * w[1] + d[2] * w[2];
+                if dot.total_cmp(&best.1).is_ge() {
+                    best = (i as u32, dot);
+                }
+            }
+            map.push(best.0);
         }
     }
-    p
+    let map = Arc::new(map);
+    *KEPT.lock().unwrap() = Some((directions.to_vec(), width, map.clone()));
+    map
 }
