@@ -64,6 +64,25 @@ pub enum Bench {
         #[arg(long = "model")]
         models: Vec<PathBuf>,
     },
+    /// A studio's catalogue: a cold build of many distinct small assets (copies of shared
+    /// models, one vertex moved per copy), no-op rebuilds and the rebuild after one asset is
+    /// edited, with peak memory; each fitted as a fixed cost plus a cost per asset.
+    Catalogue {
+        /// Catalogue sizes, e.g. `--assets 100,1000,10000`.
+        #[arg(long, value_delimiter = ',', default_value = "100,1000")]
+        assets: Vec<usize>,
+        /// Timed no-op rebuilds per size (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Build in this folder (one `catalogue-N` folder per size, kept) instead of a
+        /// temporary one.
+        #[arg(long)]
+        keep: Option<PathBuf>,
+        /// A model to copy (repeatable; OBJ or GLB, relative to ../shared/models or absolute),
+        /// instead of the lowres bunny, the duck and the vertex-coloured box.
+        #[arg(long = "model")]
+        models: Vec<PathBuf>,
+    },
     /// Frame time of drawing the ORI versus the full mesh with the wgpu renderer (whatever
     /// adapter exists: the software driver on a machine without a GPU).
     Render {
@@ -85,6 +104,12 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Release => release(),
         Bench::Remote { baseline } => crate::bench_remote::run(baseline),
         Bench::Scale { runs, models } => crate::bench_scale::run(runs, &models),
+        Bench::Catalogue {
+            assets,
+            runs,
+            keep,
+            models,
+        } => crate::bench_catalogue::run(&assets, runs, keep.as_deref(), &models),
         Bench::Render { frames, size } => render(frames, size),
     };
     match result {

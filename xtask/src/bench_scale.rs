@@ -139,7 +139,9 @@ fn cold_build(model: &Path) -> Result<ColdBuild, String> {
 
 /// Wait for the child; its exit status, its peak resident memory where the platform reports
 /// it, and its standard error.
-fn wait_with_peak(mut child: std::process::Child) -> Result<(bool, Option<u64>, String), String> {
+pub(crate) fn wait_with_peak(
+    mut child: std::process::Child,
+) -> Result<(bool, Option<u64>, String), String> {
     use std::io::Read;
     let mut bytes = Vec::new();
     if let Some(mut pipe) = child.stderr.take() {
@@ -236,8 +238,8 @@ fn print_rows(rows: &[Row], stages: &[String]) {
     }
 }
 
-/// Least-squares `y = fixed + per_100k * faces / 100,000`.
-fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
+/// Least-squares `y = fixed + slope * x` (x: hundreds of thousands of faces, or assets).
+pub(crate) fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     let n = points.len() as f64;
     let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
     let my = points.iter().map(|p| p.1).sum::<f64>() / n;

@@ -2,6 +2,7 @@
 //! crate, so everything it does is also testable and usable from code.
 
 mod bench;
+mod bench_catalogue;
 mod bench_remote;
 mod bench_scale;
 mod compare;
