@@ -308,50 +308,15 @@ pub fn verify(dir: &Path) -> Result<usize, Vec<String>> {
         Ok(bytes) => serde_json::from_slice(&bytes)
             .map_err(|e| vec![format!("{}: not a release index: {e}", index.display())])?,
     };
-    let mut problems = Vec::new();
-    let mut listed = BTreeSet::new();
-    for want in &release.assets {
-        let path = dir.join(&want.package);
-        listed.insert(want.package.clone());
-        let bytes = match std::fs::read(&path) {
-            Ok(b) => b,
-            Err(e) => {
-                problems.push(format!("{}: cannot read: {e}", path.display()));
-                continue;
-            }
-        };
-        let got = match entry(&want.name, &bytes) {
-            Ok(got) => got,
-            Err(e) => {
-                problems.push(format!("{}: {e}", path.display()));
-                continue;
-            }
-        };
-        let checks = [
-            ("size", want.bytes.to_string(), got.bytes.to_string()),
-            ("blake3", want.blake3.clone(), got.blake3.clone()),
-            ("package name", want.package.clone(), got.package.clone()),
-            ("PLT", want.plt.to_string(), got.plt.to_string()),
-            (
-                "PLT bound",
-                want.plt_at_least.to_string(),
-                got.plt_at_least.to_string(),
-            ),
-            (
-                "texture bytes",
-                want.texture_bytes.to_string(),
-                got.texture_bytes.to_string(),
-            ),
-        ];
-        for (what, w, g) in checks {
-            if w != g {
-                problems.push(format!(
-                    "{}: {what} is {g}, release.json says {w}",
-                    path.display()
-                ));
-            }
-        }
-    }
+    // Packages are checked in parallel (each read whole once: a package is checked as a
+    // reader would read it); problems are listed in asset order.
+    let per_package: Vec<Vec<String>> = release
+        .assets
+        .par_iter()
+        .map(|want| verify_package(dir, want))
+        .collect();
+    let mut problems: Vec<String> = per_package.into_iter().flatten().collect();
+    let listed: BTreeSet<String> = release.assets.iter().map(|e| e.package.clone()).collect();
     for extra in ori_files(dir).difference(&listed) {
         problems.push(format!(
             "{}: not listed in release.json",
@@ -362,5 +327,84 @@ pub fn verify(dir: &Path) -> Result<usize, Vec<String>> {
         Ok(release.assets.len())
     } else {
         Err(problems)
+    }
+}
+
+/// What is wrong with one listed package (nothing when it matches its entry).
+fn verify_package(dir: &Path, want: &ReleaseEntry) -> Vec<String> {
+    if !owned_package_path(&want.package) {
+        return vec![format!(
+            "{}: {:?} is not a package path inside the folder",
+            dir.join(RELEASE_JSON).display(),
+            want.package
+        )];
+    }
+    let path = dir.join(&want.package);
+    let bytes = match std::fs::read(&path) {
+        Ok(b) => b,
+        Err(e) => return vec![format!("{}: cannot read: {e}", path.display())],
+    };
+    let got = match entry(&want.name, &bytes) {
+        Ok(got) => got,
+        Err(e) => return vec![format!("{}: {e}", path.display())],
+    };
+    let checks = [
+        ("size", want.bytes.to_string(), got.bytes.to_string()),
+        ("blake3", want.blake3.clone(), got.blake3.clone()),
+        ("package name", want.package.clone(), got.package.clone()),
+        ("PLT", want.plt.to_string(), got.plt.to_string()),
+        (
+            "PLT bound",
+            want.plt_at_least.to_string(),
+            got.plt_at_least.to_string(),
+        ),
+        (
+            "texture bytes",
+            want.texture_bytes.to_string(),
+            got.texture_bytes.to_string(),
+        ),
+    ];
+    checks
+        .into_iter()
+        .filter(|(_, w, g)| w != g)
+        .map(|(what, w, g)| format!("{}: {what} is {g}, release.json says {w}", path.display()))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn verify_reads_no_file_outside_the_folder() {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("release");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(root.path().join("outside.ori"), b"not yours").unwrap();
+        let release = Release {
+            release_version: 1,
+            tool: "test".into(),
+            assets: vec![ReleaseEntry {
+                name: "a.obj".into(),
+                package: "../outside.ori".into(),
+                blake3: String::new(),
+                bytes: 9,
+                plt: 1.0,
+                plt_at_least: false,
+                texture_bytes: 0,
+                nodes: None,
+            }],
+        };
+        std::fs::write(
+            dir.join(RELEASE_JSON),
+            serde_json::to_vec(&release).unwrap(),
+        )
+        .unwrap();
+        let problems = verify(&dir).unwrap_err();
+        assert_eq!(problems.len(), 1, "{problems:?}");
+        assert!(
+            problems[0].contains("\"../outside.ori\" is not a package path"),
+            "{problems:?}"
+        );
     }
 }
