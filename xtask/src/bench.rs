@@ -171,13 +171,17 @@ fn timed_build(config: &Path) -> Result<(Duration, usize), String> {
             String::from_utf8_lossy(&out.stderr)
         ));
     }
-    let ran = stdout
+    Ok((elapsed, ingests_ran(&stdout)?))
+}
+
+/// How many ingest jobs ran, from the summary table `build-assets` prints.
+pub(crate) fn ingests_ran(stdout: &str) -> Result<usize, String> {
+    stdout
         .lines()
         .find(|l| l.starts_with("ingest"))
         .and_then(|l| l.split_whitespace().nth(1))
         .and_then(|n| n.parse().ok())
-        .ok_or_else(|| format!("no summary in the output:\n{stdout}"))?;
-    Ok((elapsed, ran))
+        .ok_or_else(|| format!("no summary in the output:\n{stdout}"))
 }
 
 fn noop_rebuild(assets: usize, runs: usize) -> Result<(), String> {

@@ -175,11 +175,11 @@ fn seal(path: &Path, stamp: &Stamp, hash: &ContentHash) -> ContentHash {
     ContentHash(*h.finalize().as_bytes())
 }
 
-/// The memo file's intact entries, and how many were dropped as damaged (an unreadable file
-/// counts as one).
-fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize) {
+/// The memo file's intact entries, how many were dropped as damaged (an unreadable file
+/// counts as one), and whether it held entries of the unsealed first version (left out).
+fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize, bool) {
     let Ok(bytes) = fs::read(path) else {
-        return (BTreeMap::new(), 0);
+        return (BTreeMap::new(), 0, false);
     };
     // Usually every entry is whole: take them in one pass, and look at each one apart only
     // when some is not.
@@ -187,16 +187,18 @@ fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize) {
         let before = memo.len();
         memo.retain(|file, e| e.seal == seal(file, &e.stamp, &e.hash));
         let dropped = before - memo.len();
-        return (memo, dropped);
+        return (memo, dropped, false);
     }
     let Ok(entries) = serde_json::from_slice::<BTreeMap<PathBuf, serde_json::Value>>(&bytes) else {
-        return (BTreeMap::new(), 1);
+        return (BTreeMap::new(), 1, false);
     };
     let mut dropped = 0;
+    let mut outdated = false;
     let mut memo = BTreeMap::new();
     for (file, value) in entries {
         // Entries of the unsealed first version are simply read again, without a warning.
         if value.get("seal").is_none() && value.get("stamp").is_some() {
+            outdated = true;
             continue;
         }
         match serde_json::from_value::<MemoEntry>(value) {
@@ -206,7 +208,7 @@ fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize) {
             _ => dropped += 1,
         }
     }
-    (memo, dropped)
+    (memo, dropped, outdated)
 }
 
 /// Hashes source files, remembering results across builds in a memo file.
@@ -226,14 +228,15 @@ impl SourceHasher {
     /// Load the memo at `memo_path` (a missing memo just means hashing anew; damaged entries
     /// are dropped and counted in [`SourceHasher::dropped`]).
     pub fn new(memo_path: PathBuf, rules: SourceRules) -> SourceHasher {
-        let (memo, dropped) = load_memo(&memo_path);
+        let (memo, dropped, outdated) = load_memo(&memo_path);
         SourceHasher {
             memo_path,
             rules,
             memo: Mutex::new(memo),
             dropped,
             rehashed: Mutex::new(0),
-            changed: AtomicBool::new(false),
+            // A memo with outdated entries is written again without them.
+            changed: AtomicBool::new(outdated),
         }
     }
 
@@ -270,6 +273,16 @@ impl SourceHasher {
         self.rules.read(path)
     }
 
+    /// Remember that the file at `path`, just written by this process, holds the content
+    /// `hash`, so the next build need not read it (subject to the racy window, like every
+    /// entry); when it cannot be looked at, it is forgotten instead.
+    pub fn record(&self, path: &Path, hash: ContentHash) {
+        match self.rules.check(path) {
+            Ok(Some((_, meta))) => self.remember(path, stamp(&meta), hash),
+            _ => self.forget(path),
+        }
+    }
+
     /// Drop what is memoised for `path` (its bytes did not match), so the next build reads it.
     pub fn forget(&self, path: &Path) {
         if self.memo.lock().unwrap().remove(path).is_some() {
@@ -303,7 +316,7 @@ impl SourceHasher {
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default()
             .as_nanos() as i128;
-        let (mut merged, _) = load_memo(&self.memo_path);
+        let (mut merged, _, _) = load_memo(&self.memo_path);
         let ours = self.memo.lock().unwrap();
         merged.extend(ours.iter().map(|(k, v)| (k.clone(), v.clone())));
         merged.retain(|_, e| {
@@ -458,5 +471,44 @@ mod tests {
         assert_eq!(hasher.hash(&file).unwrap(), Some(ContentHash::of(b"ply")));
         assert_eq!(hasher.rehashed(), 0, "served from the memo");
         assert_eq!(hasher.hash(&dir.path().join("nope")).unwrap(), None);
+    }
+
+    #[test]
+    fn a_recorded_output_is_not_read_again_and_an_unchanged_memo_is_not_rewritten() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = old_file(dir.path(), "p.ori", b"package");
+        let memo = dir.path().join("memo.json");
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
+        hasher.record(&file, ContentHash::of(b"package"));
+        std::thread::sleep(RACY_WINDOW + Duration::from_millis(100));
+        hasher.save().unwrap();
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
+        assert_eq!(
+            hasher.hash(&file).unwrap(),
+            Some(ContentHash::of(b"package"))
+        );
+        assert_eq!(hasher.rehashed(), 0, "served from the recorded entry");
+        // The same entries laid out differently: a save that wrote would lay them out again.
+        let json: serde_json::Value = serde_json::from_slice(&fs::read(&memo).unwrap()).unwrap();
+        let pretty = serde_json::to_vec_pretty(&json).unwrap();
+        fs::write(&memo, &pretty).unwrap();
+        hasher.save().unwrap();
+        assert_eq!(
+            fs::read(&memo).unwrap(),
+            pretty,
+            "nothing changed: not saved"
+        );
+
+        // A memo holding entries of the unsealed first version is written again without them.
+        let mut json: serde_json::Value =
+            serde_json::from_slice(&fs::read(&memo).unwrap()).unwrap();
+        json["/old/unsealed.obj"] = serde_json::json!({"stamp": {}, "hash": "00"});
+        fs::write(&memo, serde_json::to_vec(&json).unwrap()).unwrap();
+        let hasher = SourceHasher::new(memo.clone(), SourceRules::default());
+        assert_eq!(hasher.dropped(), 0);
+        hasher.save().unwrap();
+        let saved: serde_json::Value = serde_json::from_slice(&fs::read(&memo).unwrap()).unwrap();
+        assert!(saved.get("/old/unsealed.obj").is_none(), "{saved}");
+        assert!(saved.get(file.to_str().unwrap()).is_some(), "{saved}");
     }
 }

@@ -136,8 +136,10 @@ pub struct Written {
     pub warnings: Vec<String>,
 }
 
-/// Write `packages` (asset name, package bytes; sorted by name) and `release.json` into
-/// `dir`. Packages first, the index last, so the index never names a file not yet written.
+/// Write `packages` (sorted by asset name; each read from the cache only when needed) and
+/// `release.json` into `dir`. Two assets with the same package path are refused before
+/// anything is written; packages are written first (in parallel), the index last, so the
+/// index never names a file not yet written; after a failure, `release.json` is not written.
 /// The builder removes only what it wrote: the packages the folder's previous `release.json`
 /// lists that are not part of this release, so the folder is the same as a clean build's.
 /// Any other `.ori` file is left alone, with a warning. A package whose bytes are already
@@ -241,7 +243,7 @@ fn place(
         };
         ori_graph::write_atomic(&path, &bytes)
             .map_err(|err| (path.clone(), format!("cannot write: {err}")))?;
-        memo.files.forget(&path);
+        memo.files.record(&path, p.blob.hash);
     }
     Ok(entry)
 }

@@ -1,4 +1,5 @@
-//! The report page: one static HTML file, pictures beside it.
+//! The report's pages: static HTML, pictures beside them; the index holds the summary of
+//! every asset and the first assets' sections, further pages the others'.
 
 use std::fmt::Write;
 
@@ -86,9 +87,13 @@ pub fn page_file(k: usize) -> String {
     }
 }
 
-/// Where asset `i`'s section is, from any page.
+/// Where asset `i`'s section is, from the index (which holds the summary table): an anchor
+/// on the index itself for the first page's assets, so following it keeps the table's sort.
 fn asset_link(i: usize) -> String {
-    format!("{}#asset{i}", page_file(i / ASSETS_PER_PAGE + 1))
+    match i / ASSETS_PER_PAGE + 1 {
+        1 => format!("#asset{i}"),
+        k => format!("{}#asset{i}", page_file(k)),
+    }
 }
 
 /// Every page of the report: (file name, HTML), the index first.
@@ -457,6 +462,7 @@ mod tests {
             let link = asset_link(i);
             assert!(index.contains(&format!("href=\"{link}\"")), "{link}");
             let (file, anchor) = link.split_once('#').unwrap();
+            let file = if file.is_empty() { INDEX } else { file };
             let holders: Vec<&str> = pages
                 .iter()
                 .filter(|(_, html)| html.contains(&format!("id=\"{anchor}\"")))

@@ -1,4 +1,5 @@
-//! The build report: `report/index.html` beside a release, readable at a glance, and
+//! The build report: `report/index.html` beside a release, readable at a glance (with
+//! `assets-2.html`, ... for a catalogue's further asset sections), and
 //! `report/report.json` with the same figures for scripts.
 //!
 //! It is made from what a build leaves in its output folder (`release.json`, the packages,
@@ -277,8 +278,21 @@ fn picture_folder(asset: &str) -> String {
     format!("a-{}", &blake3::hash(asset.as_bytes()).to_hex()[..16])
 }
 
-/// Remove the picture folders (those holding a `pictures.json`) of assets no longer in the
-/// report; a failure leaves a folder behind, which costs only disk.
+/// Whether a folder name is one [`picture_folder`] gives, or the index-numbered `a000` of
+/// earlier reports.
+fn is_picture_folder(name: &str) -> bool {
+    let all = |s: &str, f: fn(&u8) -> bool| !s.is_empty() && s.as_bytes().iter().all(f);
+    match name.strip_prefix("a-") {
+        Some(hex) => hex.len() == 16 && all(hex, u8::is_ascii_hexdigit),
+        None => name
+            .strip_prefix('a')
+            .is_some_and(|digits| all(digits, u8::is_ascii_digit)),
+    }
+}
+
+/// Remove the picture folders (named as [`picture_folder`] names them, holding a
+/// `pictures.json`) of assets no longer in the report; a failure leaves a folder behind,
+/// which costs only disk.
 fn remove_unused_picture_folders(dir: &Path, summaries: &[AssetSummary]) {
     let used: HashSet<String> = summaries.iter().map(|s| picture_folder(&s.name)).collect();
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -287,8 +301,9 @@ fn remove_unused_picture_folders(dir: &Path, summaries: &[AssetSummary]) {
     for entry in entries.filter_map(Result::ok) {
         let name = entry.file_name().to_string_lossy().into_owned();
         let path = entry.path();
-        let ours =
-            entry.file_type().is_ok_and(|t| t.is_dir()) && path.join("pictures.json").is_file();
+        let ours = is_picture_folder(&name)
+            && entry.file_type().is_ok_and(|t| t.is_dir())
+            && path.join("pictures.json").is_file();
         if ours && !used.contains(&name) {
             let _ = std::fs::remove_dir_all(&path);
         }
@@ -650,4 +665,26 @@ fn nearest(directions: &[[f64; 3]], w: [f64; 3]) -> usize {
         }
     }
     best.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_picture_folders_are_taken_for_ours() {
+        assert!(is_picture_folder(&picture_folder("f/a.obj")));
+        assert!(is_picture_folder("a000") && is_picture_folder("a1234"));
+        for other in [
+            "a",
+            "a-",
+            "a-0123",
+            "a-0123456789abcdeg",
+            "assets",
+            "b000",
+            "a0x",
+        ] {
+            assert!(!is_picture_folder(other), "{other}");
+        }
+    }
 }
