@@ -12,10 +12,11 @@ fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-fn opt(v: Option<f64>, digits: usize) -> (String, String) {
+/// A figure as shown, and as sorted (-1 when absent).
+fn opt(v: Option<f64>, digits: usize) -> (String, f64) {
     match v {
-        Some(v) => (format!("{v:.digits$}"), format!("{v}")),
-        None => ("–".into(), "-1".into()),
+        Some(v) => (format!("{v:.digits$}"), v),
+        None => ("–".into(), -1.0),
     }
 }
 
@@ -45,32 +46,59 @@ figure { margin: 0; } figcaption { color: #555; font-size: 12px; max-width: 380p
 .error { background: #fee; border: 1px solid #e99; padding: 6px 10px; display: inline-block; white-space: pre-wrap; }
 ";
 
-/// Sorts the summary by a column (numbers by `data-v`), and records for tests whether every
-/// picture loaded and whether any script error happened.
+/// Shows the summary table a page of rows at a time from the rows embedded as JSON (every
+/// asset, so sorting by a column orders the whole catalogue), and records for tests whether
+/// every picture loaded and whether any script error happened.
 const SCRIPT: &str = "
 var errors = 0;
 window.addEventListener('error', function () { errors++; });
-document.querySelectorAll('table.summary th').forEach(function (th, col) {
-  th.addEventListener('click', function () {
-    var body = th.closest('table').tBodies[0];
-    var rows = Array.from(body.rows);
-    var up = th.dataset.dir !== 'up';
-    th.dataset.dir = up ? 'up' : 'down';
-    rows.sort(function (a, b) {
-      var x = a.cells[col].dataset.v, y = b.cells[col].dataset.v;
-      var r = (x !== undefined && y !== undefined) ? (parseFloat(x) - parseFloat(y))
-        : a.cells[col].textContent.localeCompare(b.cells[col].textContent);
-      return up ? r : -r;
-    });
-    rows.forEach(function (r) { body.appendChild(r); });
+(function () {
+  var data = document.getElementById('summary-rows');
+  var table = document.querySelector('table.summary');
+  if (!data || !table) { return; }
+  var rows = JSON.parse(data.textContent);
+  var body = table.tBodies[0], per = ROWS_SHOWN, first = 0;
+  var info = document.getElementById('summary-info');
+  function show() {
+    body.innerHTML = rows.slice(first, first + per).map(function (r) { return r[0]; }).join('');
+    info.textContent = 'rows ' + (rows.length ? first + 1 : 0) + ' to ' +
+      Math.min(first + per, rows.length) + ' of ' + rows.length;
+  }
+  document.getElementById('summary-prev').addEventListener('click', function () {
+    first = Math.max(0, first - per); show();
   });
-});
+  document.getElementById('summary-next').addEventListener('click', function () {
+    if (first + per < rows.length) { first += per; } show();
+  });
+  table.querySelectorAll('th').forEach(function (th, col) {
+    th.addEventListener('click', function () {
+      var up = th.dataset.dir !== 'up';
+      th.dataset.dir = up ? 'up' : 'down';
+      rows.sort(function (a, b) {
+        var x = a[col + 1], y = b[col + 1];
+        var r = (typeof x === 'number' && typeof y === 'number') ? x - y
+          : String(x).localeCompare(String(y));
+        return up ? r : -r;
+      });
+      first = 0; show();
+    });
+  });
+  show();
+})();
 window.addEventListener('load', function () {
   var imgs = Array.from(document.images);
   var failed = imgs.filter(function (i) { return !i.complete || i.naturalWidth === 0; }).length;
   document.body.dataset.check = 'images=' + imgs.length + ' failed=' + failed + ' errors=' + errors;
 });
 ";
+
+/// The page's script, with its constants.
+fn script() -> String {
+    SCRIPT.replace("ROWS_SHOWN", &ROWS_SHOWN.to_string())
+}
+
+/// Summary rows shown at a time (and written as static rows, for a reader without scripts).
+pub const ROWS_SHOWN: usize = 100;
 
 /// The report's first page: the summary of every asset, then the first assets' sections.
 pub const INDEX: &str = "index.html";
@@ -147,7 +175,7 @@ fn page(report: &ReportSummary, k: usize, count: usize) -> String {
             asset_section(&mut h, i, &report.assets[i]);
         }
         page_links(&mut h, report, k, count);
-        let _ = writeln!(h, "<script>{SCRIPT}</script>\n</body></html>");
+        let _ = writeln!(h, "<script>{}</script>\n</body></html>", script());
         return h;
     }
     let _ = writeln!(
@@ -166,7 +194,7 @@ fn page(report: &ReportSummary, k: usize, count: usize) -> String {
         asset_section(&mut h, i, &report.assets[i]);
     }
     page_links(&mut h, report, k, count);
-    let _ = writeln!(h, "<script>{SCRIPT}</script>\n</body></html>");
+    let _ = writeln!(h, "<script>{}</script>\n</body></html>", script());
     h
 }
 
@@ -205,59 +233,99 @@ fn summary_table(h: &mut String, report: &ReportSummary) {
         let _ = write!(h, "<th>{} s</th>", esc(s));
     }
     h.push_str("<th>built</th></tr></thead><tbody>\n");
-    for (i, a) in report.assets.iter().enumerate() {
-        let class = if a.status == "ok" {
-            ""
-        } else {
-            " class=\"failed\""
-        };
-        let _ = write!(
-            h,
-            "<tr{class}><td><a href=\"{}\">{}</a></td>",
-            asset_link(i),
-            esc(&a.name)
-        );
-        let int = |v: Option<u64>| opt(v.map(|v| v as f64), 0);
-        let cells = [
-            int(a.faces),
-            int(a.impostors.map(|v| v as u64)),
-            int(a.resolution.map(u64::from)),
-            int(a.package_bytes),
-            int(a.texture_bytes),
-            opt(a.plt, 1),
-            opt(a.held_out_coverage_error_max_percent, 3),
-            opt(a.held_out_coverage_error_avg_percent, 3),
-            opt(a.held_out_impostors_per_view, 2),
-            opt(a.coverage_error_max_percent, 3),
-            opt(a.coverage_error_avg_percent, 3),
-            opt(a.impostors_per_view, 2),
-            opt(a.p_dif, 1),
-        ];
-        for (text, v) in cells {
-            let _ = write!(h, "<td data-v=\"{v}\">{text}</td>");
-        }
-        for s in &stages {
-            match a.jobs.iter().find(|j| &j.0 == s) {
-                Some((_, status, secs)) if status == "ran" => {
-                    let _ = write!(h, "<td data-v=\"{secs}\">{secs:.2}</td>");
-                }
-                Some((_, status, _)) => {
-                    let _ = write!(h, "<td data-v=\"0\" class=\"muted\">{}</td>", esc(status));
-                }
-                None => h.push_str("<td data-v=\"-1\">–</td>"),
-            }
-        }
-        let ran = a.jobs.iter().filter(|j| j.1 == "ran").count();
-        let built = if a.status != "ok" {
-            "failed".to_string()
-        } else if ran == 0 {
-            "cached".to_string()
-        } else {
-            format!("rebuilt ({ran} of {} jobs)", a.jobs.len())
-        };
-        let _ = writeln!(h, "<td>{built}</td></tr>");
+    // Every row as its HTML and its sort keys (a number where the column has one).
+    let rows: Vec<serde_json::Value> = report
+        .assets
+        .iter()
+        .enumerate()
+        .map(|(i, a)| summary_row(i, a, &stages))
+        .collect();
+    for row in rows.iter().take(ROWS_SHOWN) {
+        h.push_str(row[0].as_str().unwrap_or_default());
     }
     h.push_str("</tbody></table></div>\n");
+    let _ = writeln!(
+        h,
+        "<p class=\"muted\"><button id=\"summary-prev\">previous</button> \
+         <span id=\"summary-info\">rows 1 to {} of {}</span> \
+         <button id=\"summary-next\">next</button></p>",
+        rows.len().min(ROWS_SHOWN),
+        rows.len()
+    );
+    // `</` is escaped so that no string can end the script element.
+    let json = serde_json::to_string(&rows)
+        .expect("rows serialise")
+        .replace("</", "<\\/");
+    let _ = writeln!(
+        h,
+        "<script type=\"application/json\" id=\"summary-rows\">{json}</script>"
+    );
+}
+
+/// One asset's summary row: `[html, sort key per column...]`.
+fn summary_row(i: usize, a: &AssetSummary, stages: &[String]) -> serde_json::Value {
+    let mut h = String::new();
+    let mut keys = vec![serde_json::Value::from(a.name.clone())];
+    let class = if a.status == "ok" {
+        ""
+    } else {
+        " class=\"failed\""
+    };
+    let _ = write!(
+        h,
+        "<tr{class}><td><a href=\"{}\">{}</a></td>",
+        asset_link(i),
+        esc(&a.name)
+    );
+    let int = |v: Option<u64>| opt(v.map(|v| v as f64), 0);
+    let cells = [
+        int(a.faces),
+        int(a.impostors.map(|v| v as u64)),
+        int(a.resolution.map(u64::from)),
+        int(a.package_bytes),
+        int(a.texture_bytes),
+        opt(a.plt, 1),
+        opt(a.held_out_coverage_error_max_percent, 3),
+        opt(a.held_out_coverage_error_avg_percent, 3),
+        opt(a.held_out_impostors_per_view, 2),
+        opt(a.coverage_error_max_percent, 3),
+        opt(a.coverage_error_avg_percent, 3),
+        opt(a.impostors_per_view, 2),
+        opt(a.p_dif, 1),
+    ];
+    for (text, v) in cells {
+        let _ = write!(h, "<td>{text}</td>");
+        keys.push(v.into());
+    }
+    for s in stages {
+        match a.jobs.iter().find(|j| &j.0 == s) {
+            Some((_, status, secs)) if status == "ran" => {
+                let _ = write!(h, "<td>{secs:.2}</td>");
+                keys.push((*secs).into());
+            }
+            Some((_, status, _)) => {
+                let _ = write!(h, "<td class=\"muted\">{}</td>", esc(status));
+                keys.push(0.0.into());
+            }
+            None => {
+                h.push_str("<td>–</td>");
+                keys.push((-1.0).into());
+            }
+        }
+    }
+    let ran = a.jobs.iter().filter(|j| j.1 == "ran").count();
+    let built = if a.status != "ok" {
+        "failed".to_string()
+    } else if ran == 0 {
+        "cached".to_string()
+    } else {
+        format!("rebuilt ({ran} of {} jobs)", a.jobs.len())
+    };
+    let _ = write!(h, "<td>{built}</td></tr>");
+    keys.push(built.into());
+    let mut row = vec![serde_json::Value::from(h)];
+    row.extend(keys);
+    serde_json::Value::Array(row)
 }
 
 fn img(h: &mut String, a: &AssetSummary, role: &str, alt: &str) {
@@ -458,9 +526,18 @@ mod tests {
         assert_eq!(pages.len(), 3);
         assert_eq!(pages[0].0, INDEX);
         let index = &pages[0].1;
-        for i in 0..n {
+        // Every row is in the embedded rows, the first ROWS_SHOWN also written out.
+        let json = index.split("id=\"summary-rows\">").nth(1).unwrap();
+        let json = json.split("</script>").next().unwrap();
+        let rows: Vec<serde_json::Value> = serde_json::from_str(json).unwrap();
+        assert_eq!(rows.len(), n);
+        assert!(n > ROWS_SHOWN);
+        for (i, row) in rows.iter().enumerate() {
             let link = asset_link(i);
-            assert!(index.contains(&format!("href=\"{link}\"")), "{link}");
+            let href = format!("href=\"{link}\"");
+            assert!(row[0].as_str().unwrap().contains(&href), "{link}");
+            assert_eq!(index.contains(&href), i < ROWS_SHOWN, "{link}");
+            assert_eq!(row[1], format!("f/{i:04}.obj").as_str());
             let (file, anchor) = link.split_once('#').unwrap();
             let file = if file.is_empty() { INDEX } else { file };
             let holders: Vec<&str> = pages

@@ -7,9 +7,9 @@
 //! without rebuilding (`cargo xtask report`). Every ORI picture is drawn by the CPU evaluator
 //! from the package's *decoded* textures: what ships, block compression included.
 //!
-//! Invariants: the page is static and self-contained (pictures are PNG files beside it, the
-//! histogram is inline SVG, the only script sorts the table and checks that every picture
-//! loaded); nothing is fetched from a network; an asset whose source is missing or changed
+//! Invariants: the pages are static and self-contained (pictures are PNG files beside them,
+//! the histogram is inline SVG, the only script shows and sorts the summary's rows, embedded
+//! as JSON, a page at a time, and checks that every picture loaded); nothing is fetched from a network; an asset whose source is missing or changed
 //! since its package was built gets its figures without the reference pictures, and says so.
 //! An asset's pictures are drawn again only when its package, its source model or the drawing
 //! code ([`PICTURES_VERSION`]) changed: a stamp of the three beside them (`pictures.json`)
