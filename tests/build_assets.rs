@@ -136,6 +136,7 @@ fn dry_run_changes_nothing() {
     let out = p.build(&["--dry-run"]);
     let t = ok(&out);
     assert!(t.contains("would run because new job"), "{t}");
+    assert!(t.contains("dry run of 1 assets: 8 job(s) would run"), "{t}");
     assert!(!p.path("out/report.json").exists());
     assert!(!p.path("cache/ac").exists());
 }

@@ -112,7 +112,11 @@ pub fn format_summary(s: &BuildSummary) -> String {
         ));
     }
     if s.dry_run {
-        out.push_str(&format!("{} assets would run", s.assets));
+        let jobs: usize = s.stages.iter().map(|l| l.would_run).sum();
+        out.push_str(&format!(
+            "dry run of {} assets: {jobs} job(s) would run",
+            s.assets
+        ));
     } else if s.failed_assets > 0 {
         out.push_str(&format!(
             "{} assets built, {} failed",
