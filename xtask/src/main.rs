@@ -238,7 +238,7 @@ fn folders(
         stat_memo: Some(
             cache
                 .unwrap_or_else(|| c.resolve(&c.cache.dir))
-                .join(ori_report::STAT_MEMO),
+                .join(ori_graph::STAT_MEMO),
         ),
     };
     let options = ori_report::ReportOptions {

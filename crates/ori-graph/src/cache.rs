@@ -88,6 +88,9 @@ pub struct Cache {
 
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
+/// The source stat memo's file name under the cache root.
+pub const STAT_MEMO: &str = "stat-memo.json";
+
 /// Write `bytes` to `path` atomically: a uniquely named temporary file in the same folder,
 /// renamed over the target. Concurrent writers of the same content both succeed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
@@ -141,7 +144,7 @@ impl Cache {
 
     /// Path of the stat memo (see `sources.rs`).
     pub fn stat_memo_path(&self) -> PathBuf {
-        self.root.join("stat-memo.json")
+        self.root.join(STAT_MEMO)
     }
 
     /// Store `bytes` under their hash (a no-op when an intact copy is already there).

@@ -20,7 +20,9 @@ mod stage;
 mod store;
 mod tiered;
 
-pub use cache::{ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, write_atomic};
+pub use cache::{
+    ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, STAT_MEMO, write_atomic,
+};
 pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec};
 pub use outcome::{JobResult, Observer, Outcome, RunReason, Silent};

@@ -162,7 +162,19 @@ fn page(report: &ReportSummary, k: usize, count: usize) -> String {
          <h1>ORI build report</h1>\n"
     );
     let sections = (k - 1) * ASSETS_PER_PAGE..(k * ASSETS_PER_PAGE).min(n);
-    if k > 1 {
+    if k == 1 {
+        let _ = writeln!(
+            h,
+            "<p class=\"muted\">{n} asset(s), {failed} failed. \
+             Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, at the \
+             held-out directions (none of which a stage chose anything at; table: at the 320 \
+             directions of the selection table). PLT: the largest on-screen size (pixels) the \
+             ORI may be drawn at, from the worst held-out view. p_dif: mean colour error \
+             (0-765) over the four comparison views. \
+             Click a column to sort.</p>"
+        );
+        summary_table(&mut h, report);
+    } else {
         let _ = writeln!(
             h,
             "<p class=\"muted\"><a href=\"{INDEX}\">Summary of all {n} assets</a>; \
@@ -170,25 +182,7 @@ fn page(report: &ReportSummary, k: usize, count: usize) -> String {
             sections.start + 1,
             sections.end
         );
-        page_links(&mut h, report, k, count);
-        for i in sections {
-            asset_section(&mut h, i, &report.assets[i]);
-        }
-        page_links(&mut h, report, k, count);
-        let _ = writeln!(h, "<script>{}</script>\n</body></html>", script());
-        return h;
     }
-    let _ = writeln!(
-        h,
-        "<p class=\"muted\">{n} asset(s), {failed} failed. \
-         Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, at the \
-         held-out directions (none of which a stage chose anything at; table: at the 320 \
-         directions of the selection table). PLT: the largest on-screen size (pixels) the ORI \
-         may be drawn at, from the worst held-out view. p_dif: mean colour error (0-765) over \
-         the four comparison views. \
-         Click a column to sort.</p>"
-    );
-    summary_table(&mut h, report);
     page_links(&mut h, report, k, count);
     for i in sections {
         asset_section(&mut h, i, &report.assets[i]);

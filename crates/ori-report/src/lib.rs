@@ -36,8 +36,9 @@ pub use relief::relief_set;
 pub struct SourceAccess {
     pub rules: ori_graph::SourceRules,
     pub limits: ori_mesh::Limits,
-    /// A stat memo of the sources' hashes kept between reports (in the build's cache folder),
-    /// so that a report whose sources are unchanged does not read them; `None`: read them.
+    /// The build's stat memo of the sources' hashes (`ori_graph::STAT_MEMO` in its cache
+    /// folder), so that the report reads no source the build already hashed; `None`: read
+    /// them.
     pub stat_memo: Option<PathBuf>,
 }
 
@@ -110,9 +111,6 @@ const VIEWS: [(&str, [f64; 3]); 4] = [
     ("top", [0.0, 1.0, 0.0]),
     ("oblique", [-0.48, 0.36, -0.8]),
 ];
-
-/// The report's stat memo of source hashes, in the build's cache folder.
-pub const STAT_MEMO: &str = "report-stat-memo.json";
 
 /// Edge of the comparison pictures (whatever s0 the selection used: they are for people).
 const PICTURE_SIZE: u32 = 256;
