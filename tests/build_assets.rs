@@ -131,6 +131,64 @@ fn edits_rerun_exactly_what_they_touch_and_explain_why() {
 }
 
 #[test]
+fn an_unchanged_asset_comes_from_the_asset_memo_and_a_damaged_memo_costs_a_warning() {
+    let p = Project::new(&["bunny", "box-vertex-colors"]);
+    ok(&p.build(&[]));
+    let release = tree(&p.path("out"));
+    let report = report_text(&p, "out");
+    // Without the jobs' action entries the memo still knows both assets: nothing runs.
+    fs::remove_dir_all(p.path("cache/ac")).unwrap();
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert_eq!(ran_all(&out), [0; 8], "{t}");
+    assert!(
+        t.contains("[plt] bunny/bunny_npm_lowres.obj: reused"),
+        "{t}"
+    );
+    same_release(&tree(&p.path("out")), &release, "from the memo");
+    assert_eq!(report_text(&p, "out"), report);
+
+    // A package the release must copy again is read from the cache first: a damaged one (of
+    // the right size) sends its asset through the graph, which makes it again.
+    let entry = |name: &str| {
+        let index: serde_json::Value =
+            serde_json::from_slice(&fs::read(p.path("out/release.json")).unwrap()).unwrap();
+        let e = index["assets"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["name"] == name);
+        let e = e.unwrap().clone();
+        (
+            e["package"].as_str().unwrap().to_string(),
+            e["blake3"].as_str().unwrap().to_string(),
+        )
+    };
+    let (package, hash) = entry("bunny/bunny_npm_lowres.obj");
+    let blob = p.path(&format!("cache/cas/{}/{hash}", &hash[..2]));
+    let mut bytes = fs::read(&blob).unwrap();
+    bytes[100] ^= 1;
+    fs::write(&blob, bytes).unwrap();
+    fs::remove_file(p.path("out").join(&package)).unwrap();
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "package"), 1, "{t}");
+    same_release(&tree(&p.path("out")), &release, "damaged package blob");
+
+    // A damaged memo: one warning, and every asset goes through the graph.
+    fs::write(p.path("cache/asset-memo.json"), b"{ damaged").unwrap();
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert!(
+        t.contains("warning") && t.contains("asset-memo.json"),
+        "{t}"
+    );
+    same_release(&tree(&p.path("out")), &release, "damaged memo");
+    assert_eq!(report_text(&p, "out"), report);
+    assert_eq!(ran_all(&p.build(&[])), [0; 8]);
+}
+
+#[test]
 fn dry_run_changes_nothing() {
     let p = Project::new(&["bunny"]);
     let out = p.build(&["--dry-run"]);

@@ -171,4 +171,12 @@ impl Observer for Progress {
     fn note(&self, message: &str) {
         self.print(message);
     }
+
+    fn asset_unchanged(&self, asset: &str, stages: &[String]) {
+        if self.mode == ProgressMode::Lines {
+            for stage in stages {
+                self.print(&format!("[{stage}] {asset}: reused"));
+            }
+        }
+    }
 }

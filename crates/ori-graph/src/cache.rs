@@ -188,6 +188,19 @@ impl Cache {
         let _ = remove_any(&self.blob_path(hash));
     }
 
+    /// A checked JSON file `name` at the cache's root (a memo a user of the cache keeps:
+    /// damage is reported, and the file removed, like a damaged action entry).
+    pub fn read_memo<T: for<'de> Deserialize<'de>>(&self, name: &str) -> Result<T, ReadError> {
+        read_checked_json(&self.root.join(name))
+    }
+
+    /// Write the checked JSON file `name` at the cache's root, atomically (compact: memos
+    /// are large and read by programs only).
+    pub fn write_memo<T: Serialize>(&self, name: &str, value: &T) -> io::Result<()> {
+        let json = serde_json::to_string(value).map_err(io::Error::other)?;
+        write_entry(&self.root.join(name), &checked(json))
+    }
+
     /// The action entry for `key`, verified.
     pub fn read_action(&self, key: &ContentHash) -> Result<ActionEntry, ReadError> {
         read_checked_json(&self.action_path(key))
@@ -213,7 +226,12 @@ impl Cache {
 /// The same bytes are stored locally and sent to a remote cache.
 pub(crate) fn encode_checked_json<T: Serialize>(value: &T) -> io::Result<Vec<u8>> {
     let json = serde_json::to_string_pretty(value).map_err(io::Error::other)?;
-    Ok(format!("{}\n{json}\n", ContentHash::of(json.as_bytes())).into_bytes())
+    Ok(checked(json))
+}
+
+/// JSON text behind the line that checks it.
+fn checked(json: String) -> Vec<u8> {
+    format!("{}\n{json}\n", ContentHash::of(json.as_bytes())).into_bytes()
 }
 
 /// Check and parse what [`encode_checked_json`] wrote; the error says what is wrong.

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Duration;
 
-use crate::cache::BlobRef;
+use crate::cache::{BlobRef, DiscoveredFile};
 use crate::job::{Graph, JobSpec};
 
 /// Why a job had to run.
@@ -70,6 +70,8 @@ pub struct JobResult {
     pub outputs: BTreeMap<String, BlobRef>,
     /// Warnings the stage printed (replayed from the cache when reused).
     pub warnings: Vec<String>,
+    /// Files the stage read besides its inputs (empty unless reused or ran).
+    pub discovered: Vec<DiscoveredFile>,
     /// Time spent running the stage (zero when reused).
     pub duration: Duration,
 }
@@ -80,6 +82,7 @@ impl JobResult {
             outcome,
             outputs: BTreeMap::new(),
             warnings: Vec::new(),
+            discovered: Vec::new(),
             duration: Duration::ZERO,
         }
     }
@@ -95,6 +98,9 @@ pub trait Observer: Sync {
     fn job_finished(&self, _job: &JobSpec, _result: &JobResult) {}
     /// Something the user should see that belongs to no single job outcome.
     fn note(&self, _message: &str) {}
+    /// The caller knew, without looking its jobs up, that `asset`'s results are those of an
+    /// earlier build: its jobs (of these stages) count as reused and are in no graph.
+    fn asset_unchanged(&self, _asset: &str, _stages: &[String]) {}
 }
 
 /// An observer that ignores everything.

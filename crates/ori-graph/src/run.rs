@@ -32,6 +32,10 @@ pub struct RunOptions {
     pub cached_only: bool,
     /// What every source file and every file a stage discovers must be to be read.
     pub sources: SourceRules,
+    /// The source hasher shared by the runs of one build and whatever else it hashes sources
+    /// for (its stat memo loaded once; its own rules apply). `None`: the run loads the stat
+    /// memo itself, with the rules above.
+    pub shared_sources: Option<Arc<SourceHasher>>,
 }
 
 /// The most worker threads a run starts, whatever it is asked for.
@@ -85,7 +89,12 @@ pub fn run<'g>(
     let exec = Exec {
         graph,
         store: Tiered::new(cache.clone(), options.remote.clone(), !options.dry_run),
-        sources: SourceHasher::new(cache.stat_memo_path(), options.sources.clone()),
+        sources: options.shared_sources.clone().unwrap_or_else(|| {
+            Arc::new(SourceHasher::new(
+                cache.stat_memo_path(),
+                options.sources.clone(),
+            ))
+        }),
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
         cached_only: options.cached_only,
@@ -184,7 +193,7 @@ impl<'g> Build<'g> {
 struct Exec<'g> {
     graph: &'g Graph,
     store: Tiered,
-    sources: SourceHasher,
+    sources: Arc<SourceHasher>,
     results: Vec<OnceLock<JobResult>>,
     dry_run: bool,
     cached_only: bool,
@@ -306,6 +315,7 @@ impl<'g> Exec<'g> {
                         outcome: Outcome::Reused,
                         outputs: entry.outputs,
                         warnings: entry.warnings,
+                        discovered: entry.discovered,
                         duration: Duration::ZERO,
                     };
                 }
@@ -317,6 +327,7 @@ impl<'g> Exec<'g> {
                         outcome: Outcome::Reused,
                         outputs: entry.outputs,
                         warnings: entry.warnings,
+                        discovered: entry.discovered,
                         duration: Duration::ZERO,
                     };
                 }
@@ -359,6 +370,7 @@ impl<'g> Exec<'g> {
             outcome: Outcome::Ran(reason),
             outputs: entry.outputs,
             warnings: entry.warnings,
+            discovered: entry.discovered,
             duration: start.elapsed(),
         }
     }

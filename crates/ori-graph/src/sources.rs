@@ -220,7 +220,8 @@ pub struct SourceHasher {
     dropped: usize,
     /// Files hashed by reading them (not from the memo) during this build.
     rehashed: Mutex<u64>,
-    /// Whether an entry was added or removed since loading (else saving has nothing to add).
+    /// Whether an entry was added, removed or dropped since loading or the last save (else
+    /// saving has nothing to add).
     changed: AtomicBool,
 }
 
@@ -235,8 +236,8 @@ impl SourceHasher {
             memo: Mutex::new(memo),
             dropped,
             rehashed: Mutex::new(0),
-            // A memo with outdated entries is written again without them.
-            changed: AtomicBool::new(outdated),
+            // A memo with outdated or damaged entries is written again without them.
+            changed: AtomicBool::new(outdated || dropped > 0),
         }
     }
 
@@ -307,9 +308,10 @@ impl SourceHasher {
 
     /// Write the memo back, merged with the intact entries another builder may have saved
     /// meanwhile, leaving out racily recent files. Nothing is written when no entry changed
-    /// and none was dropped as damaged: the file already says what the memo knows.
+    /// and none was dropped as damaged since loading or the last save: the file already says
+    /// what the memo knows.
     pub fn save(&self) -> io::Result<()> {
-        if !self.changed.load(Ordering::Relaxed) && self.dropped == 0 {
+        if !self.changed.swap(false, Ordering::Relaxed) {
             return Ok(());
         }
         let now = SystemTime::now()
@@ -323,7 +325,18 @@ impl SourceHasher {
             now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128
         });
         let json = serde_json::to_vec(&merged).map_err(io::Error::other)?;
-        write_atomic(&self.memo_path, &json)
+        write_atomic(&self.memo_path, &json).inspect_err(|_| {
+            self.changed.store(true, Ordering::Relaxed);
+        })
+    }
+}
+
+impl std::fmt::Debug for SourceHasher {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SourceHasher")
+            .field("memo_path", &self.memo_path)
+            .field("rules", &self.rules)
+            .finish_non_exhaustive()
     }
 }
 

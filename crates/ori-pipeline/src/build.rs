@@ -1,20 +1,25 @@
 //! `build-assets` and `assemble`: read the configuration, discover the assets, decide what
 //! the searches decide, run the plan, and write what the mode asks for.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
 
-use ori_graph::{Cache, Observer, Outcome, RemoteCache, RunOptions};
-use ori_release::{AssetStatus, REPORT_JSON};
+use ori_graph::{BlobRef, Cache, Observer, Outcome, RemoteCache, RunOptions, SourceHasher};
+use ori_release::{AssetReport, AssetStatus, BuildReport, REPORT_JSON};
+use rayon::prelude::*;
 
 use crate::config::{Config, StageParams};
 use crate::discover::{Asset, discover};
 use crate::plan::{PlannedAsset, plan};
-use crate::report::{Collected, Reading, collect};
+use crate::release::BuiltPackage;
+use crate::report::{Reading, collect};
 use crate::runs::Runs;
 use crate::shard::{self, Shard};
-use crate::summary::{BuildSummary, RemoteSummary};
+use crate::stages::Registry;
+use crate::summary::{BuildSummary, RemoteSummary, StageLine};
+use crate::unchanged::{AssetMemo, Looked, Unchanged};
 use crate::{PipelineError, outputs, release, search};
 
 /// What a build is for.
@@ -113,6 +118,7 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
         remote: remote.clone(),
         cached_only: options.mode == Mode::Assemble,
         sources: config.limits.source_rules(&root)?,
+        shared_sources: None,
     };
     Ok(Setup {
         out_dir,
@@ -138,31 +144,91 @@ pub fn build_assets(
         out_dir,
         all_assets,
         assets,
-        mut params,
+        params,
         limits,
         cache,
-        run_options,
+        mut run_options,
         remote,
     } = setup(options)?;
+    // One stat memo for the memo's look-ups and every run.
+    let sources = Arc::new(SourceHasher::new(
+        cache.stat_memo_path(),
+        run_options.sources.clone(),
+    ));
+    run_options.shared_sources = Some(sources.clone());
+    let memo = AssetMemo::open(&cache, &Registry::new(limits), limits, &run_options.sources);
+    if let Some(why) = &memo.damaged {
+        observer.note(&format!("warning: {why}; every asset is looked at again"));
+    }
+    let release_memo = release::ReleaseMemo::open(cache.root());
+    let write_release = !options.dry_run && !matches!(options.mode, Mode::Shard(_));
+    // A package the release must copy is read now, so a damaged one is built again instead.
+    let usable = |asset: &Asset, blob: &BlobRef| {
+        let path = out_dir.join(release::package_path(&asset.name));
+        cache.blob_present(blob)
+            && (!write_release || release_memo.holds(&path, blob) || cache.read_blob(blob).is_ok())
+    };
+    // Maps need the bake's outputs, which an unchanged asset does not look up.
+    let use_memo = options.dump_maps.is_none();
+    let looked: Vec<Looked> = assets
+        .par_iter()
+        .zip(&params)
+        .map(|(asset, params)| match use_memo {
+            true => memo.look_up(asset, params, &sources, usable),
+            false => Looked::Build(None),
+        })
+        .collect();
     let mut runs = Runs {
         cache,
         options: run_options,
         observer,
         stages: Vec::new(),
-        sources_hashed: 0,
     };
+    let mut entries: Vec<Option<AssetReport>> = vec![None; assets.len()];
+    let mut unchanged_packages: Vec<(usize, BuiltPackage<'static>)> = Vec::new();
+    let mut changed = Vec::new();
+    let mut changed_params = Vec::new();
+    for (i, (look, params)) in looked.into_iter().zip(params).enumerate() {
+        match look {
+            Looked::Unchanged(unchanged) => {
+                let Unchanged {
+                    report,
+                    package,
+                    warnings,
+                } = *unchanged;
+                let stages: Vec<String> = report.jobs.iter().map(|j| j.stage.clone()).collect();
+                observer.asset_unchanged(&report.name, &stages);
+                for (label, warning) in warnings {
+                    observer.note(&format!("warning: {label}: {warning}"));
+                }
+                StageLine::add_reused(&mut runs.stages, &stages);
+                entries[i] = Some(report);
+                unchanged_packages.push((i, package));
+            }
+            Looked::Build(pending) => {
+                changed.push((i, pending));
+                changed_params.push(params);
+            }
+        }
+    }
+    let changed_assets: Vec<Asset> = changed.iter().map(|&(i, _)| assets[i].clone()).collect();
+    let mut params = changed_params;
+
     // `auto` resolutions are measured first, then hierarchies' shapes (a dry run plans the
     // first guess and single ORIs only).
     let (auto, trees) = if options.dry_run {
-        (vec![None; assets.len()], vec![None; assets.len()])
+        (
+            vec![None; changed_assets.len()],
+            vec![None; changed_assets.len()],
+        )
     } else {
-        let auto = search::choose_resolutions(&assets, &mut params, limits, &mut runs);
-        let trees = search::choose_trees(&assets, &params, limits, &mut runs);
+        let auto = search::choose_resolutions(&changed_assets, &mut params, limits, &mut runs);
+        let trees = search::choose_trees(&changed_assets, &params, limits, &mut runs);
         (auto, trees)
     };
     let resolutions: Vec<u32> = params.iter().map(|p| p.bake.resolution).collect();
     let seeds: Vec<u64> = params.iter().map(|p| p.plt.held_out_seed).collect();
-    let planned: Vec<PlannedAsset> = assets
+    let planned: Vec<PlannedAsset> = changed_assets
         .iter()
         .zip(params)
         .zip(trees)
@@ -179,16 +245,33 @@ pub fn build_assets(
         outputs: !options.dry_run,
         dump_maps: options.dump_maps.as_deref(),
     };
-    let Collected {
-        report,
-        packages,
-        unreadable,
-    } = collect(&graph, &build, &jobs, &resolutions, &seeds, &auto, &reading);
+    let collected = collect(&graph, &build, &jobs, &resolutions, &seeds, &auto, &reading);
     let failed_jobs = graph
         .jobs()
         .filter(|(id, _)| matches!(build.result(*id).outcome, Outcome::Failed(_)))
         .count()
-        + unreadable;
+        + collected.unreadable;
+    // Back into asset order, and remembered where they built whole.
+    let mut packages: Vec<(usize, BuiltPackage<'_>)> = unchanged_packages;
+    let mut built: HashMap<String, BuiltPackage<'_>> = collected
+        .packages
+        .into_iter()
+        .map(|p| (p.name.clone(), p))
+        .collect();
+    for (((i, pending), entry), j) in changed.iter().zip(collected.report.assets).zip(&jobs) {
+        let package = built.remove(entry.name.as_str());
+        if let Some(pending) = pending.filter(|_| !options.dry_run) {
+            let blob = package.as_ref().map(|p| &p.blob);
+            memo.remember(pending, &sources, (&graph, &build), j, &entry, blob);
+        }
+        packages.extend(package.map(|p| (*i, p)));
+        entries[*i] = Some(entry);
+    }
+    packages.sort_by_key(|&(i, _)| i);
+    let packages: Vec<BuiltPackage<'_>> = packages.into_iter().map(|(_, p)| p).collect();
+    let report = BuildReport {
+        assets: entries.into_iter().flatten().collect(),
+    };
 
     if options.mode == Mode::Assemble && !options.dry_run {
         let missing: Vec<String> = report
@@ -209,12 +292,10 @@ pub fn build_assets(
     {
         outputs::explode(dir, &packages)?;
     }
-    let write_release = !options.dry_run && !matches!(options.mode, Mode::Shard(_));
     let mut warnings = Vec::new();
     let mut report_path = None;
     if write_release {
-        let memo = release::ReleaseMemo::open(runs.cache.root());
-        let written = release::write(&out_dir, &packages, &memo)
+        let written = release::write(&out_dir, &packages, &release_memo)
             .map_err(|(path, message)| PipelineError::Output { path, message })?;
         warnings.extend(written.warnings);
         let path = out_dir.join(REPORT_JSON);
@@ -224,6 +305,18 @@ pub fn build_assets(
             message: format!("cannot write: {e}"),
         })?;
         report_path = Some(path);
+    }
+    if !options.dry_run {
+        if options.mode == Mode::Release {
+            memo.keep_only(&assets.iter().map(|a| a.name.as_str()).collect());
+        }
+        let saved = memo.save().and_then(|()| sources.save());
+        if let Err(e) = saved {
+            warnings.push(format!(
+                "cannot save the memos in {}: {e}",
+                runs.cache.root().display()
+            ));
+        }
     }
     Ok(BuildSummary {
         assets: assets.len(),
@@ -236,7 +329,7 @@ pub fn build_assets(
         stages: runs.stages,
         failed_jobs,
         wall_seconds: start.elapsed().as_secs_f64(),
-        sources_hashed: runs.sources_hashed,
+        sources_hashed: sources.rehashed(),
         dry_run: options.dry_run,
         report: report_path,
         shard: match options.mode {

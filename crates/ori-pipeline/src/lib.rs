@@ -36,6 +36,7 @@ pub mod search;
 pub mod shard;
 pub mod stages;
 pub mod summary;
+pub mod unchanged;
 
 use std::path::{Path, PathBuf};
 

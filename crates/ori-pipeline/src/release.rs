@@ -123,7 +123,7 @@ impl ReleaseMemo {
 
     /// Whether the file at `path` holds the content `blob` (from the stat memo when the file
     /// is unchanged since it was last hashed).
-    fn holds(&self, path: &Path, blob: &BlobRef) -> bool {
+    pub fn holds(&self, path: &Path, blob: &BlobRef) -> bool {
         matches!(self.files.hash(path), Ok(Some(h)) if h == blob.hash)
     }
 }

@@ -11,8 +11,6 @@ pub struct Runs<'a> {
     pub observer: &'a dyn Observer,
     /// Per stage, over every run so far.
     pub stages: Vec<StageLine>,
-    /// Source files read and hashed (memo misses), over every run so far.
-    pub sources_hashed: u64,
 }
 
 impl<'a> Runs<'a> {
@@ -23,7 +21,6 @@ impl<'a> Runs<'a> {
     {
         let build = ori_graph::run(graph, &self.cache, &self.options, self.observer);
         StageLine::add_run(&mut self.stages, &build);
-        self.sources_hashed += build.sources_rehashed();
         build
     }
 }

@@ -64,21 +64,25 @@ pub struct StageLine {
 }
 
 impl StageLine {
+    fn new(stage: &str) -> StageLine {
+        StageLine {
+            stage: stage.to_string(),
+            ran: 0,
+            reused: 0,
+            would_run: 0,
+            failed: 0,
+            skipped: 0,
+            seconds: 0.0,
+        }
+    }
+
     /// Add a run's per-stage counts and times to `lines` (by stage name, first-seen order).
     pub fn add_run(lines: &mut Vec<StageLine>, build: &ori_graph::Build<'_>) {
         for s in build.summary() {
             let i = match lines.iter().position(|l| l.stage == s.stage) {
                 Some(i) => i,
                 None => {
-                    lines.push(StageLine {
-                        stage: s.stage.to_string(),
-                        ran: 0,
-                        reused: 0,
-                        would_run: 0,
-                        failed: 0,
-                        skipped: 0,
-                        seconds: 0.0,
-                    });
+                    lines.push(StageLine::new(s.stage));
                     lines.len() - 1
                 }
             };
@@ -89,6 +93,21 @@ impl StageLine {
             l.failed += s.failed;
             l.skipped += s.skipped;
             l.seconds += s.time.as_secs_f64();
+        }
+    }
+
+    /// Count jobs of these stages as reused (an asset known unchanged, whose jobs are in no
+    /// run).
+    pub fn add_reused(lines: &mut Vec<StageLine>, stages: &[String]) {
+        for stage in stages {
+            let i = match lines.iter().position(|l| &l.stage == stage) {
+                Some(i) => i,
+                None => {
+                    lines.push(StageLine::new(stage));
+                    lines.len() - 1
+                }
+            };
+            lines[i].reused += 1;
         }
     }
 }

@@ -197,4 +197,12 @@ impl Registry {
     pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
         self.stages.iter().map(|s| s.name())
     }
+
+    /// Every stage's name and version, in data-flow order.
+    pub fn versions(&self) -> Vec<(&'static str, u32)> {
+        self.stages
+            .iter()
+            .map(|s| (s.name(), s.version()))
+            .collect()
+    }
 }
