@@ -28,7 +28,7 @@ pub use job::{Graph, Input, JobId, JobSpec};
 pub use outcome::{JobResult, Observer, Outcome, RunReason, Silent};
 pub use remote::{Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore};
 pub use run::{Build, MAX_THREADS, RunOptions, StageSummary, run};
-pub use sources::{DEFAULT_MAX_FILE_BYTES, RACY_WINDOW, SourceHasher, SourceRules};
+pub use sources::{DEFAULT_MAX_FILE_BYTES, FileVersion, RACY_WINDOW, SourceHasher, SourceRules};
 pub use stage::{JobContext, Stage, StageError};
 pub use store::{Lookup, ResultStore};
 pub use tiered::Tiered;

@@ -14,12 +14,12 @@
 //! [`RACY_WINDOW`] at save time are not memoised (git's "racily clean" rule): such a file is
 //! simply re-hashed next time. A changed file is therefore always re-hashed.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fs;
 use std::io::{self, Read};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{LazyLock, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use serde::{Deserialize, Serialize};
@@ -163,7 +163,10 @@ struct MemoEntry {
 
 /// The keyed hash that binds a memo entry to its path.
 fn seal(path: &Path, stamp: &Stamp, hash: &ContentHash) -> ContentHash {
-    let mut h = blake3::Hasher::new_derive_key("ori-graph stat memo entry v2");
+    // Deriving the key once: a memo has an entry per source file.
+    static SEALER: LazyLock<blake3::Hasher> =
+        LazyLock::new(|| blake3::Hasher::new_derive_key("ori-graph stat memo entry v2"));
+    let mut h = SEALER.clone();
     let path = path.as_os_str().as_encoded_bytes();
     h.update(&(path.len() as u64).to_le_bytes());
     h.update(path);
@@ -177,24 +180,24 @@ fn seal(path: &Path, stamp: &Stamp, hash: &ContentHash) -> ContentHash {
 
 /// The memo file's intact entries, how many were dropped as damaged (an unreadable file
 /// counts as one), and whether it held entries of the unsealed first version (left out).
-fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize, bool) {
+fn load_memo(path: &Path) -> (HashMap<PathBuf, MemoEntry>, usize, bool) {
     let Ok(bytes) = fs::read(path) else {
-        return (BTreeMap::new(), 0, false);
+        return (HashMap::new(), 0, false);
     };
     // Usually every entry is whole: take them in one pass, and look at each one apart only
     // when some is not.
-    if let Ok(mut memo) = serde_json::from_slice::<BTreeMap<PathBuf, MemoEntry>>(&bytes) {
+    if let Ok(mut memo) = serde_json::from_slice::<HashMap<PathBuf, MemoEntry>>(&bytes) {
         let before = memo.len();
         memo.retain(|file, e| e.seal == seal(file, &e.stamp, &e.hash));
         let dropped = before - memo.len();
         return (memo, dropped, false);
     }
     let Ok(entries) = serde_json::from_slice::<BTreeMap<PathBuf, serde_json::Value>>(&bytes) else {
-        return (BTreeMap::new(), 1, false);
+        return (HashMap::new(), 1, false);
     };
     let mut dropped = 0;
     let mut outdated = false;
-    let mut memo = BTreeMap::new();
+    let mut memo = HashMap::new();
     for (file, value) in entries {
         // Entries of the unsealed first version are simply read again, without a warning.
         if value.get("seal").is_none() && value.get("stamp").is_some() {
@@ -215,9 +218,12 @@ fn load_memo(path: &Path) -> (BTreeMap<PathBuf, MemoEntry>, usize, bool) {
 pub struct SourceHasher {
     memo_path: PathBuf,
     rules: SourceRules,
-    memo: Mutex<BTreeMap<PathBuf, MemoEntry>>,
+    memo: Mutex<HashMap<PathBuf, MemoEntry>>,
     /// Damaged entries dropped when the memo was loaded.
     dropped: usize,
+    /// The memo file's version when loaded or last saved: while it is the one on disk,
+    /// nobody else wrote it and saving need not read it again.
+    version: Mutex<Option<FileVersion>>,
     /// Files hashed by reading them (not from the memo) during this build.
     rehashed: Mutex<u64>,
     /// Whether an entry was added, removed or dropped since loading or the last save (else
@@ -229,12 +235,14 @@ impl SourceHasher {
     /// Load the memo at `memo_path` (a missing memo just means hashing anew; damaged entries
     /// are dropped and counted in [`SourceHasher::dropped`]).
     pub fn new(memo_path: PathBuf, rules: SourceRules) -> SourceHasher {
+        let version = FileVersion::of(&memo_path);
         let (memo, dropped, outdated) = load_memo(&memo_path);
         SourceHasher {
             memo_path,
             rules,
             memo: Mutex::new(memo),
             dropped,
+            version: Mutex::new(version),
             rehashed: Mutex::new(0),
             // A memo with outdated or damaged entries is written again without them.
             changed: AtomicBool::new(outdated || dropped > 0),
@@ -254,6 +262,9 @@ impl SourceHasher {
     /// Content hash of the file at `path`, or `Ok(None)` if there is no such file; an error
     /// when the file breaks a [`SourceRules`] rule or cannot be read.
     pub fn hash(&self, path: &Path) -> io::Result<Option<ContentHash>> {
+        if let Some(hash) = self.unchanged(path) {
+            return Ok(Some(hash));
+        }
         let Some((resolved, meta)) = self.rules.check(path)? else {
             return Ok(None);
         };
@@ -267,6 +278,26 @@ impl SourceHasher {
         *self.rehashed.lock().unwrap() += 1;
         self.remember(path, stamp, hash);
         Ok(Some(hash))
+    }
+
+    /// The memoised hash of a file that is, without resolving links, the very file (same
+    /// inode, size and times) hashed under the rules before: nothing is read, so the path
+    /// need not be resolved again. Only paths that name their place under the root plainly.
+    fn unchanged(&self, path: &Path) -> Option<ContentHash> {
+        let plain = !path
+            .components()
+            .any(|c| matches!(c, std::path::Component::ParentDir));
+        let inside = self.rules.root.as_ref().is_none_or(|r| path.starts_with(r));
+        if !plain || !inside {
+            return None;
+        }
+        let meta = fs::symlink_metadata(path).ok()?;
+        if !meta.is_file() || meta.len() > self.rules.max_file_bytes {
+            return None;
+        }
+        let memo = self.memo.lock().unwrap();
+        let entry = memo.get(path)?;
+        (entry.stamp == stamp(&meta)).then_some(entry.hash)
     }
 
     /// Read a file under the rules (see [`SourceRules::read`]).
@@ -318,16 +349,33 @@ impl SourceHasher {
             .duration_since(UNIX_EPOCH)
             .unwrap_or_default()
             .as_nanos() as i128;
-        let (mut merged, _, _) = load_memo(&self.memo_path);
+        let mut version = self.version.lock().unwrap();
         let ours = self.memo.lock().unwrap();
+        let mut merged = match FileVersion::of(&self.memo_path) {
+            current if current == *version => HashMap::new(),
+            _ => load_memo(&self.memo_path).0,
+        };
         merged.extend(ours.iter().map(|(k, v)| (k.clone(), v.clone())));
         merged.retain(|_, e| {
             now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128
         });
-        let json = serde_json::to_vec(&merged).map_err(io::Error::other)?;
-        write_atomic(&self.memo_path, &json).inspect_err(|_| {
-            self.changed.store(true, Ordering::Relaxed);
-        })
+        // Sorted, so that the same memo is the same file.
+        let sorted: BTreeMap<&str, &MemoEntry> = merged
+            .iter()
+            .filter_map(|(path, e)| Some((path.to_str()?, e)))
+            .collect();
+        let json = serde_json::to_vec(&sorted).map_err(io::Error::other)?;
+        match write_atomic(&self.memo_path, &json) {
+            Ok(()) => {
+                // What is on disk now is ours, less the racy entries (kept in memory).
+                *version = FileVersion::of(&self.memo_path);
+                Ok(())
+            }
+            Err(e) => {
+                self.changed.store(true, Ordering::Relaxed);
+                Err(e)
+            }
+        }
     }
 }
 
@@ -337,6 +385,18 @@ impl std::fmt::Debug for SourceHasher {
             .field("memo_path", &self.memo_path)
             .field("rules", &self.rules)
             .finish_non_exhaustive()
+    }
+}
+
+/// Which version of a file is on disk: any edit, and any atomic rewrite (a new inode),
+/// gives another. A memo saved by another builder since it was loaded is told this way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FileVersion(Stamp);
+
+impl FileVersion {
+    /// The version of the file at `path`; `None` when there is none.
+    pub fn of(path: &Path) -> Option<FileVersion> {
+        fs::metadata(path).ok().map(|m| FileVersion(stamp(&m)))
     }
 }
 

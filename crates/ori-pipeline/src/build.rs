@@ -160,7 +160,7 @@ pub fn build_assets(
     if let Some(why) = &memo.damaged {
         observer.note(&format!("warning: {why}; every asset is looked at again"));
     }
-    let release_memo = release::ReleaseMemo::open(cache.root());
+    let release_memo = release::ReleaseMemo::open(&cache);
     let write_release = !options.dry_run && !matches!(options.mode, Mode::Shard(_));
     // A package the release must copy is read now, so a damaged one is built again instead.
     let usable = |asset: &Asset, blob: &BlobRef| {

@@ -4,10 +4,11 @@
 //! Nothing here depends on time, paths outside the folder or thread count: the same packages
 //! give the same folder, byte for byte.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
-use ori_graph::{BlobRef, ContentHash, SourceHasher, SourceRules};
+use ori_graph::{BlobRef, Cache, ContentHash, FileVersion, SourceHasher, SourceRules};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use walkdir::WalkDir;
@@ -87,38 +88,63 @@ pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
 /// hash), and a stat memo of the release folders' files (the same sealed memo, with its racy
 /// window, that sources use).
 pub struct ReleaseMemo {
-    checked_dir: PathBuf,
+    cache: Cache,
+    /// Checks by package hash, as loaded, and those this build made.
+    checked: BTreeMap<ContentHash, Checked>,
+    /// The checks file's version when loaded (see [`ReleaseMemo::save`]).
+    version: Option<FileVersion>,
+    learnt: Mutex<BTreeMap<ContentHash, Checked>>,
     files: SourceHasher,
 }
 
+/// The checks' file name under the cache root.
+const CHECKED_MEMO: &str = "release-checked.json";
+
 impl ReleaseMemo {
-    pub fn open(cache_root: &Path) -> ReleaseMemo {
+    pub fn open(cache: &Cache) -> ReleaseMemo {
         ReleaseMemo {
-            checked_dir: cache_root.join("release-checked"),
+            cache: cache.clone(),
+            // A damaged memo only costs checking again.
+            version: FileVersion::of(&cache.root().join(CHECKED_MEMO)),
+            checked: cache.read_memo(CHECKED_MEMO).unwrap_or_default(),
+            learnt: Mutex::new(BTreeMap::new()),
             files: SourceHasher::new(
-                cache_root.join("release-stat-memo.json"),
+                cache.root().join("release-stat-memo.json"),
                 SourceRules::default(),
             ),
         }
     }
 
-    fn checked_path(&self, hash: &ContentHash) -> PathBuf {
-        self.checked_dir.join(format!("{}.json", hash.to_hex()))
-    }
-
     /// The remembered check of the content `blob`; `None` (check again) when there is none or
-    /// it is damaged or for other bytes.
+    /// it is for other bytes.
     fn checked(&self, blob: &BlobRef) -> Option<Checked> {
-        let bytes = std::fs::read(self.checked_path(&blob.hash)).ok()?;
-        let checked: Checked = serde_json::from_slice(&bytes).ok()?;
-        (checked.blake3 == blob.hash.to_hex() && checked.bytes == blob.size).then_some(checked)
+        let checked = self.checked.get(&blob.hash)?;
+        (checked.blake3 == blob.hash.to_hex() && checked.bytes == blob.size)
+            .then(|| checked.clone())
     }
 
-    /// Remember a check; a failure to write only costs a re-check next time.
+    /// Remember a check (saved with [`ReleaseMemo::save`]).
     fn remember(&self, checked: &Checked, hash: &ContentHash) {
-        let json = serde_json::to_vec(checked).expect("a check serialises");
-        let _ = std::fs::create_dir_all(&self.checked_dir)
-            .and_then(|()| ori_graph::write_atomic(&self.checked_path(hash), &json));
+        self.learnt.lock().unwrap().insert(*hash, checked.clone());
+    }
+
+    /// Write the checks this build made into the memo file, merged with those another
+    /// builder may have written since it was loaded (read again only then).
+    fn save(&self) -> std::io::Result<()> {
+        let learnt = self.learnt.lock().unwrap();
+        if learnt.is_empty() {
+            return Ok(());
+        }
+        let written: BTreeMap<ContentHash, Checked>;
+        let base = if FileVersion::of(&self.cache.root().join(CHECKED_MEMO)) == self.version {
+            &self.checked
+        } else {
+            written = self.cache.read_memo(CHECKED_MEMO).unwrap_or_default();
+            &written
+        };
+        let mut all: BTreeMap<&ContentHash, &Checked> = base.iter().collect();
+        all.extend(learnt.iter());
+        self.cache.write_memo(CHECKED_MEMO, &all)
     }
 
     /// Whether the file at `path` holds the content `blob` (from the stat memo when the file
@@ -206,8 +232,8 @@ pub fn write(
     let mut json = serde_json::to_vec_pretty(&release).expect("release serialises");
     json.push(b'\n');
     ori_graph::write_atomic(&path, &json).map_err(|err| (path, format!("cannot write: {err}")))?;
-    if let Err(e) = memo.files.save() {
-        warnings.push(format!("cannot save the release folder's stat memo: {e}"));
+    if let Err(e) = memo.files.save().and_then(|()| memo.save()) {
+        warnings.push(format!("cannot save the release memos: {e}"));
     }
     Ok(Written { release, warnings })
 }

@@ -9,8 +9,8 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use ori_graph::{
-    BlobRef, Build, Cache, ContentHash, DiscoveredFile, Graph, Outcome, SourceHasher, SourceRules,
-    canonical_json,
+    BlobRef, Build, Cache, ContentHash, DiscoveredFile, FileVersion, Graph, Outcome, SourceHasher,
+    SourceRules, canonical_json,
 };
 use ori_release::{AssetReport, AssetStatus, JobStatus};
 use serde::{Deserialize, Serialize};
@@ -43,9 +43,9 @@ struct Remembered {
 }
 
 #[derive(Default, Serialize, Deserialize)]
-struct MemoFile {
+struct MemoFile<K: Ord = String, R = Remembered> {
     version: u32,
-    assets: BTreeMap<String, Remembered>,
+    assets: BTreeMap<K, R>,
 }
 
 /// An asset found unchanged: what its build gives.
@@ -77,6 +77,8 @@ pub struct AssetMemo {
     /// Hash of what every key shares: the tool, the stages' versions, limits and rules.
     common: ContentHash,
     known: BTreeMap<String, Remembered>,
+    /// The memo file's version when loaded (see [`AssetMemo::save`]).
+    version: Option<FileVersion>,
     /// What this build learnt: new entries, and the names to forget (`None`).
     learnt: Mutex<BTreeMap<String, Option<Remembered>>>,
     /// Why the memo file could not be used, if it could not.
@@ -99,6 +101,7 @@ impl AssetMemo {
             "limits": format!("{limits:?}"),
             "sources": format!("{rules:?}"),
         });
+        let version = FileVersion::of(&cache.root().join(ASSET_MEMO));
         let (known, damaged) = match cache.read_memo::<MemoFile>(ASSET_MEMO) {
             Ok(file) if file.version == MEMO_VERSION => (file.assets, None),
             Ok(_) | Err(ori_graph::ReadError::Missing) => (BTreeMap::new(), None),
@@ -108,6 +111,7 @@ impl AssetMemo {
             cache: cache.clone(),
             common: ContentHash::of(canonical_json(&common).as_bytes()),
             known,
+            version,
             learnt: Mutex::new(BTreeMap::new()),
             damaged,
         }
@@ -201,19 +205,29 @@ impl AssetMemo {
         if learnt.is_empty() && self.damaged.is_none() {
             return Ok(());
         }
-        let mut file = match self.cache.read_memo::<MemoFile>(ASSET_MEMO) {
-            Ok(file) if file.version == MEMO_VERSION => file,
-            _ => MemoFile {
-                version: MEMO_VERSION,
-                assets: BTreeMap::new(),
-            },
+        // Read again only when another builder wrote it since it was loaded.
+        let path = self.cache.root().join(ASSET_MEMO);
+        let written;
+        let base = if FileVersion::of(&path) == self.version {
+            &self.known
+        } else {
+            written = match self.cache.read_memo::<MemoFile>(ASSET_MEMO) {
+                Ok(file) if file.version == MEMO_VERSION => file.assets,
+                _ => BTreeMap::new(),
+            };
+            &written
         };
+        let mut assets: BTreeMap<&String, &Remembered> = base.iter().collect();
         for (name, entry) in learnt.iter() {
             match entry {
-                Some(e) => file.assets.insert(name.clone(), e.clone()),
-                None => file.assets.remove(name),
+                Some(e) => assets.insert(name, e),
+                None => assets.remove(name),
             };
         }
+        let file = MemoFile {
+            version: MEMO_VERSION,
+            assets,
+        };
         self.cache.write_memo(ASSET_MEMO, &file)
     }
 }

@@ -3,6 +3,8 @@
 
 use std::fmt::Write;
 
+use rayon::prelude::*;
+
 use crate::{AssetSummary, ReportSummary, count_colour, error_colour};
 
 fn esc(s: &str) -> String {
@@ -128,6 +130,7 @@ fn asset_link(i: usize) -> String {
 pub fn pages(report: &ReportSummary) -> Vec<(String, String)> {
     let count = report.assets.len().div_ceil(ASSETS_PER_PAGE).max(1);
     (1..=count)
+        .into_par_iter()
         .map(|k| (page_file(k), page(report, k, count)))
         .collect()
 }

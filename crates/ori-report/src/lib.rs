@@ -157,10 +157,17 @@ fn stamp(
 fn kept(folder: &Path, report_dir: &Path, stamp: &str) -> Option<Drawn> {
     let bytes = std::fs::read(folder.join("pictures.json")).ok()?;
     let drawn: Drawn = serde_json::from_slice(&bytes).ok()?;
-    let complete = drawn
-        .pictures
-        .iter()
-        .all(|(_, file)| report_dir.join(file).is_file());
+    // One listing of the folder instead of a look at each picture.
+    let listed: HashSet<PathBuf> = std::fs::read_dir(folder)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| e.path())
+        .collect();
+    let complete = drawn.pictures.iter().all(|(_, file)| {
+        let path = report_dir.join(file);
+        listed.contains(&path) || path.is_file()
+    });
     (drawn.stamp == stamp && complete).then_some(drawn)
 }
 
@@ -261,9 +268,9 @@ pub fn write_report(
     write_file(&dir.join("report.json"), &json)?;
     let pages = html::pages(&summary);
     remove_unused_pages(&dir, pages.len());
-    for (file, page) in &pages {
-        write_file(&dir.join(file), page.as_bytes())?;
-    }
+    pages
+        .par_iter()
+        .try_for_each(|(file, page)| write_file(&dir.join(file), page.as_bytes()))?;
     Ok(Written {
         index: dir.join(html::INDEX),
         invalid_packages,
