@@ -584,4 +584,59 @@ mod tests {
         assert!(saved.get("/old/unsealed.obj").is_none(), "{saved}");
         assert!(saved.get(file.to_str().unwrap()).is_some(), "{saved}");
     }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_memoised_path_whose_folder_now_leads_outside_the_root_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("root");
+        fs::create_dir_all(root.join("sub")).unwrap();
+        let inside = old_file(&root.join("sub"), "m.obj", b"inside");
+        fs::create_dir(dir.path().join("outside")).unwrap();
+        old_file(&dir.path().join("outside"), "m.obj", b"secret");
+        std::thread::sleep(RACY_WINDOW + Duration::from_millis(100));
+        let rules = SourceRules::confined(&root, 1000).unwrap();
+        let memo = dir.path().join("memo.json");
+        let hasher = SourceHasher::new(memo.clone(), rules.clone());
+        assert_eq!(
+            hasher.hash(&inside).unwrap(),
+            Some(ContentHash::of(b"inside"))
+        );
+        hasher.save().unwrap();
+        // The memo knows the path; the folder is swapped for a link to another one.
+        fs::remove_dir_all(root.join("sub")).unwrap();
+        std::os::unix::fs::symlink(dir.path().join("outside"), root.join("sub")).unwrap();
+        let hasher = SourceHasher::new(memo, rules);
+        let e = hasher.hash(&inside).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::PermissionDenied, "{e}");
+    }
+
+    #[test]
+    fn a_memo_another_builder_saved_meanwhile_is_merged_and_an_untouched_one_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (
+            old_file(dir.path(), "a.obj", b"a"),
+            old_file(dir.path(), "b.obj", b"b"),
+        );
+        std::thread::sleep(RACY_WINDOW + Duration::from_millis(100));
+        let memo = dir.path().join("memo.json");
+        let first = SourceHasher::new(memo.clone(), SourceRules::default());
+        let second = SourceHasher::new(memo.clone(), SourceRules::default());
+        first.hash(&a).unwrap();
+        first.save().unwrap();
+        second.hash(&b).unwrap();
+        second.save().unwrap();
+        let saved: serde_json::Value = serde_json::from_slice(&fs::read(&memo).unwrap()).unwrap();
+        for file in [&a, &b] {
+            assert!(saved.get(file.to_str().unwrap()).is_some(), "{saved}");
+        }
+        // Nobody wrote it since: a forgotten entry stays forgotten (not merged back in).
+        let third = SourceHasher::new(memo.clone(), SourceRules::default());
+        third.forget(&a);
+        third.save().unwrap();
+        let saved: serde_json::Value = serde_json::from_slice(&fs::read(&memo).unwrap()).unwrap();
+        assert!(saved.get(a.to_str().unwrap()).is_none(), "{saved}");
+        assert!(saved.get(b.to_str().unwrap()).is_some(), "{saved}");
+        assert_eq!(FileVersion::of(&memo), *third.version.lock().unwrap());
+    }
 }

@@ -79,6 +79,8 @@ pub struct AssetMemo {
     known: BTreeMap<String, Remembered>,
     /// The memo file's version when loaded (see [`AssetMemo::save`]).
     version: Option<FileVersion>,
+    /// Parameters hashed so far (see [`AssetMemo::params_hash`]).
+    params: Mutex<Vec<(StageParams, ContentHash)>>,
     /// What this build learnt: new entries, and the names to forget (`None`).
     learnt: Mutex<BTreeMap<String, Option<Remembered>>>,
     /// Why the memo file could not be used, if it could not.
@@ -112,6 +114,7 @@ impl AssetMemo {
             common: ContentHash::of(canonical_json(&common).as_bytes()),
             known,
             version,
+            params: Mutex::new(Vec::new()),
             learnt: Mutex::new(BTreeMap::new()),
             damaged,
         }
@@ -119,18 +122,39 @@ impl AssetMemo {
 
     /// The key of `asset` built with `params` from a source whose content hash is `source`.
     fn key(&self, asset: &Asset, params: &StageParams, source: ContentHash) -> ContentHash {
-        let params = serde_json::json!({
-            "stages": params,
-            "auto_resolution": params.auto_resolution,
-            "select_device": params.select_device,
-        });
         let mut h = blake3::Hasher::new_derive_key("ori-pipeline asset memo key");
         h.update(&self.common.0);
         h.update(&(asset.name.len() as u64).to_le_bytes());
         h.update(asset.name.as_bytes());
         h.update(&source.0);
-        h.update(canonical_json(&params).as_bytes());
+        h.update(&self.params_hash(params).0);
         ContentHash(*h.finalize().as_bytes())
+    }
+
+    /// The hash of every parameter in `params`; most assets share theirs with many others,
+    /// so the few distinct ones are hashed once each.
+    fn params_hash(&self, params: &StageParams) -> ContentHash {
+        const SEEN_AT_MOST: usize = 64;
+        if let Some((_, hash)) = self
+            .params
+            .lock()
+            .unwrap()
+            .iter()
+            .find(|(p, _)| p == params)
+        {
+            return *hash;
+        }
+        let json = serde_json::json!({
+            "stages": params,
+            "auto_resolution": params.auto_resolution,
+            "select_device": params.select_device,
+        });
+        let hash = ContentHash::of(canonical_json(&json).as_bytes());
+        let mut seen = self.params.lock().unwrap();
+        if seen.len() < SEEN_AT_MOST {
+            seen.push((params.clone(), hash));
+        }
+        hash
     }
 
     /// Whether `asset`, built with `params`, is known unchanged and its package `usable` (the

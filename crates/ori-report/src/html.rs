@@ -233,7 +233,7 @@ fn summary_table(h: &mut String, report: &ReportSummary) {
     // Every row as its HTML and its sort keys (a number where the column has one).
     let rows: Vec<serde_json::Value> = report
         .assets
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, a)| summary_row(i, a, &stages))
         .collect();
