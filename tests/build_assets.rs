@@ -174,6 +174,21 @@ fn an_unchanged_asset_comes_from_the_asset_memo_and_a_damaged_memo_costs_a_warni
     let t = ok(&out);
     assert_eq!(ran(&out, "package"), 1, "{t}");
     same_release(&tree(&p.path("out")), &release, "damaged package blob");
+    // The same when the release must read it to check it, though its file is in place.
+    let (_, hash) = entry("box-vertex-colors/BoxVertexColors.glb");
+    let blob = p.path(&format!("cache/cas/{}/{hash}", &hash[..2]));
+    let mut bytes = fs::read(&blob).unwrap();
+    bytes[100] ^= 1;
+    fs::write(&blob, bytes).unwrap();
+    fs::remove_file(p.path("cache/release-checked.json")).unwrap();
+    let out = p.build(&[]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "package"), 1, "{t}");
+    same_release(
+        &tree(&p.path("out")),
+        &release,
+        "damaged package blob, check unknown",
+    );
 
     // A damaged memo: one warning, and every asset goes through the graph.
     fs::write(p.path("cache/asset-memo.json"), b"{ damaged").unwrap();

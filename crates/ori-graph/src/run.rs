@@ -101,7 +101,8 @@ pub fn run<'g>(
         observer,
     };
     observer.run_started(graph);
-    if exec.sources.dropped() > 0 {
+    // A shared hasher's damage is its owner's to report, once.
+    if options.shared_sources.is_none() && exec.sources.dropped() > 0 {
         observer.note(&format!(
             "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
             cache.stat_memo_path().display(),

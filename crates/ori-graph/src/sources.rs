@@ -224,6 +224,8 @@ pub struct SourceHasher {
     /// The memo file's version when loaded or last saved: while it is the one on disk,
     /// nobody else wrote it and saving need not read it again.
     version: Mutex<Option<FileVersion>>,
+    /// Folders known to be (or not to be) their own canonical path.
+    plain_folders: Mutex<HashMap<PathBuf, bool>>,
     /// Files hashed by reading them (not from the memo) during this build.
     rehashed: Mutex<u64>,
     /// Whether an entry was added, removed or dropped since loading or the last save (else
@@ -243,6 +245,7 @@ impl SourceHasher {
             memo: Mutex::new(memo),
             dropped,
             version: Mutex::new(version),
+            plain_folders: Mutex::new(HashMap::new()),
             rehashed: Mutex::new(0),
             // A memo with outdated or damaged entries is written again without them.
             changed: AtomicBool::new(outdated || dropped > 0),
@@ -282,13 +285,15 @@ impl SourceHasher {
 
     /// The memoised hash of a file that is, without resolving links, the very file (same
     /// inode, size and times) hashed under the rules before: nothing is read, so the path
-    /// need not be resolved again. Only paths that name their place under the root plainly.
+    /// need not be resolved again. Only paths that name their place under the root plainly:
+    /// no `..`, and a folder that is its own canonical path (no link on the way; each folder
+    /// is resolved once per hasher).
     fn unchanged(&self, path: &Path) -> Option<ContentHash> {
         let plain = !path
             .components()
             .any(|c| matches!(c, std::path::Component::ParentDir));
         let inside = self.rules.root.as_ref().is_none_or(|r| path.starts_with(r));
-        if !plain || !inside {
+        if !plain || !inside || !self.plain_folder(path.parent()?) {
             return None;
         }
         let meta = fs::symlink_metadata(path).ok()?;
@@ -298,6 +303,19 @@ impl SourceHasher {
         let memo = self.memo.lock().unwrap();
         let entry = memo.get(path)?;
         (entry.stamp == stamp(&meta)).then_some(entry.hash)
+    }
+
+    /// Whether `folder` is its own canonical path.
+    fn plain_folder(&self, folder: &Path) -> bool {
+        if let Some(&plain) = self.plain_folders.lock().unwrap().get(folder) {
+            return plain;
+        }
+        let plain = fs::canonicalize(folder).is_ok_and(|c| c == folder);
+        self.plain_folders
+            .lock()
+            .unwrap()
+            .insert(folder.to_path_buf(), plain);
+        plain
     }
 
     /// Read a file under the rules (see [`SourceRules::read`]).
@@ -603,12 +621,16 @@ mod tests {
             Some(ContentHash::of(b"inside"))
         );
         hasher.save().unwrap();
-        // The memo knows the path; the folder is swapped for a link to another one.
-        fs::remove_dir_all(root.join("sub")).unwrap();
-        std::os::unix::fs::symlink(dir.path().join("outside"), root.join("sub")).unwrap();
-        let hasher = SourceHasher::new(memo, rules);
-        let e = hasher.hash(&inside).unwrap_err();
-        assert_eq!(e.kind(), io::ErrorKind::PermissionDenied, "{e}");
+        // The memo knows the path; the folder is swapped for a link to another one, or moved
+        // out of the root and linked back (the very file, same inode and times).
+        fs::rename(root.join("sub"), dir.path().join("moved")).unwrap();
+        for target in ["outside", "moved"] {
+            let _ = fs::remove_file(root.join("sub"));
+            std::os::unix::fs::symlink(dir.path().join(target), root.join("sub")).unwrap();
+            let hasher = SourceHasher::new(memo.clone(), rules.clone());
+            let e = hasher.hash(&inside).unwrap_err();
+            assert_eq!(e.kind(), io::ErrorKind::PermissionDenied, "{target}: {e}");
+        }
     }
 
     #[test]

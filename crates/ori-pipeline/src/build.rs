@@ -156,20 +156,30 @@ pub fn build_assets(
         run_options.sources.clone(),
     ));
     run_options.shared_sources = Some(sources.clone());
+    if sources.dropped() > 0 {
+        observer.note(&format!(
+            "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
+            cache.stat_memo_path().display(),
+            sources.dropped()
+        ));
+    }
     let memo = AssetMemo::open(&cache, &Registry::new(limits), limits, &run_options.sources);
     if let Some(why) = &memo.damaged {
         observer.note(&format!("warning: {why}; every asset is looked at again"));
     }
     let release_memo = release::ReleaseMemo::open(&cache);
     let write_release = !options.dry_run && !matches!(options.mode, Mode::Shard(_));
-    // A package the release must copy is read now, so a damaged one is built again instead.
+    // A package the release will read (to check it or copy it) is read now, so a damaged one
+    // is built again instead.
     let usable = |asset: &Asset, blob: &BlobRef| {
         let path = out_dir.join(release::package_path(&asset.name));
-        cache.blob_present(blob)
-            && (!write_release || release_memo.holds(&path, blob) || cache.read_blob(blob).is_ok())
+        let unread =
+            !write_release || (release_memo.knows(blob) && release_memo.holds(&path, blob));
+        cache.blob_present(blob) && (unread || cache.read_blob(blob).is_ok())
     };
-    // Maps need the bake's outputs, which an unchanged asset does not look up.
-    let use_memo = options.dump_maps.is_none();
+    // Maps need the bake's outputs, which an unchanged asset does not look up; exploded
+    // packages are read whatever the release knows.
+    let use_memo = options.dump_maps.is_none() && options.explode.is_none();
     let looked: Vec<Looked> = assets
         .par_iter()
         .zip(&params)

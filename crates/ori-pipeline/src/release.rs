@@ -118,9 +118,17 @@ impl ReleaseMemo {
     /// The remembered check of the content `blob`; `None` (check again) when there is none or
     /// it is for other bytes.
     fn checked(&self, blob: &BlobRef) -> Option<Checked> {
+        self.known_check(blob).cloned()
+    }
+
+    fn known_check(&self, blob: &BlobRef) -> Option<&Checked> {
         let checked = self.checked.get(&blob.hash)?;
-        (checked.blake3 == blob.hash.to_hex() && checked.bytes == blob.size)
-            .then(|| checked.clone())
+        (checked.blake3 == blob.hash.to_hex() && checked.bytes == blob.size).then_some(checked)
+    }
+
+    /// Whether the check of the content `blob` is known (so checking it reads nothing).
+    pub fn knows(&self, blob: &BlobRef) -> bool {
+        self.known_check(blob).is_some()
     }
 
     /// Remember a check (saved with [`ReleaseMemo::save`]).

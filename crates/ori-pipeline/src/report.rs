@@ -19,6 +19,10 @@ use crate::stages::package::PACKAGE;
 use crate::stages::plt::{HELD_OUT, PLT};
 use crate::stages::select::SELECTION;
 
+/// Bumped when a report entry computed from the same outputs changes (the asset memo keeps
+/// entries, and a stage's version covers only its own outputs).
+pub const ENTRY_VERSION: u32 = 1;
+
 /// What the final run produced.
 pub struct Collected<'a> {
     pub report: BuildReport,

@@ -79,8 +79,6 @@ pub struct AssetMemo {
     known: BTreeMap<String, Remembered>,
     /// The memo file's version when loaded (see [`AssetMemo::save`]).
     version: Option<FileVersion>,
-    /// Parameters hashed so far (see [`AssetMemo::params_hash`]).
-    params: Mutex<Vec<(StageParams, ContentHash)>>,
     /// What this build learnt: new entries, and the names to forget (`None`).
     learnt: Mutex<BTreeMap<String, Option<Remembered>>>,
     /// Why the memo file could not be used, if it could not.
@@ -98,6 +96,7 @@ impl AssetMemo {
     ) -> AssetMemo {
         let common = serde_json::json!({
             "memo": MEMO_VERSION,
+            "report_entry": crate::report::ENTRY_VERSION,
             "tool": tool(),
             "stages": registry.versions(),
             "limits": format!("{limits:?}"),
@@ -114,7 +113,6 @@ impl AssetMemo {
             common: ContentHash::of(canonical_json(&common).as_bytes()),
             known,
             version,
-            params: Mutex::new(Vec::new()),
             learnt: Mutex::new(BTreeMap::new()),
             damaged,
         }
@@ -131,30 +129,14 @@ impl AssetMemo {
         ContentHash(*h.finalize().as_bytes())
     }
 
-    /// The hash of every parameter in `params`; most assets share theirs with many others,
-    /// so the few distinct ones are hashed once each.
+    /// The hash of every parameter in `params` (canonical JSON: `-0.0` is not `0.0`).
     fn params_hash(&self, params: &StageParams) -> ContentHash {
-        const SEEN_AT_MOST: usize = 64;
-        if let Some((_, hash)) = self
-            .params
-            .lock()
-            .unwrap()
-            .iter()
-            .find(|(p, _)| p == params)
-        {
-            return *hash;
-        }
         let json = serde_json::json!({
             "stages": params,
             "auto_resolution": params.auto_resolution,
             "select_device": params.select_device,
         });
-        let hash = ContentHash::of(canonical_json(&json).as_bytes());
-        let mut seen = self.params.lock().unwrap();
-        if seen.len() < SEEN_AT_MOST {
-            seen.push((params.clone(), hash));
-        }
-        hash
+        ContentHash::of(canonical_json(&json).as_bytes())
     }
 
     /// Whether `asset`, built with `params`, is known unchanged and its package `usable` (the

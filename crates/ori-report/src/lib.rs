@@ -268,9 +268,12 @@ pub fn write_report(
     write_file(&dir.join("report.json"), &json)?;
     let pages = html::pages(&summary);
     remove_unused_pages(&dir, pages.len());
-    pages
+    // The first failure in page order, whatever order the threads met them in.
+    let written: Vec<Result<(), String>> = pages
         .par_iter()
-        .try_for_each(|(file, page)| write_file(&dir.join(file), page.as_bytes()))?;
+        .map(|(file, page)| write_file(&dir.join(file), page.as_bytes()))
+        .collect();
+    written.into_iter().collect::<Result<(), String>>()?;
     Ok(Written {
         index: dir.join(html::INDEX),
         invalid_packages,
