@@ -72,6 +72,17 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
     let h = read_hierarchy(&p, "stanford/armadillo/armadillo_odedstein_remeshed.ori");
     assert_eq!(h.manifest.nodes[0].children.len(), h.nodes.len() - 1);
     assert!(h.nodes.len() >= 5, "{} nodes", h.nodes.len());
+    // report.json lists every job of the asset: a package per node, then the hierarchy.
+    let report = p.report();
+    let stages: Vec<&str> = report["assets"][0]["jobs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|j| j["stage"].as_str().unwrap())
+        .collect();
+    let count = |stage: &str| stages.iter().filter(|s| **s == stage).count();
+    assert_eq!(count("package"), h.nodes.len(), "{stages:?}");
+    assert_eq!(stages.last(), Some(&"hierarchy"), "{stages:?}");
 
     let r = renderer();
     let mesh = load(&p.path("assets/stanford/armadillo/armadillo_odedstein_remeshed.obj"));

@@ -33,7 +33,8 @@ pub struct AssetJobs {
     pub plt: JobId,
     pub compress: JobId,
     pub package: JobId,
-    /// The other nodes' jobs of a hierarchy (clip and chain), upstream first.
+    /// The root node's package job, then the other nodes' jobs of a hierarchy (clip and
+    /// chain), upstream first.
     pub nodes: Vec<JobId>,
     /// Per hierarchy node, root first: the job whose `mesh` output is its mesh (ingest for
     /// the root, else its clip) and its PLT job. Just the root's for a single ORI.
@@ -263,6 +264,8 @@ impl Planner {
         let mut measured = vec![(ingest.id, root.plt.id)];
         let mut package = root.package.map(|j| j.id);
         if let Some(tree) = &planned.tree {
+            // The root node's package is one of the asset's jobs like any node's.
+            nodes.extend(root.package.map(|j| j.id));
             let mut node_packages = vec![root.package];
             for (i, node) in tree.nodes.iter().enumerate().skip(1) {
                 let label = node_label(&asset.name, i);
