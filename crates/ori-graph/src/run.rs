@@ -102,12 +102,10 @@ pub fn run<'g>(
     };
     observer.run_started(graph);
     // A shared hasher's damage is its owner's to report, once.
-    if options.shared_sources.is_none() && exec.sources.dropped() > 0 {
-        observer.note(&format!(
-            "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
-            cache.stat_memo_path().display(),
-            exec.sources.dropped()
-        ));
+    if options.shared_sources.is_none()
+        && let Some(warning) = exec.sources.damage_warning()
+    {
+        observer.note(&warning);
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.threads.min(MAX_THREADS))

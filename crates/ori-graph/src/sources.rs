@@ -257,6 +257,17 @@ impl SourceHasher {
         self.dropped
     }
 
+    /// The warning to show when damaged entries were dropped on loading.
+    pub fn damage_warning(&self) -> Option<String> {
+        (self.dropped > 0).then(|| {
+            format!(
+                "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
+                self.memo_path.display(),
+                self.dropped
+            )
+        })
+    }
+
     /// The rules every file read through this hasher must pass.
     pub fn rules(&self) -> &SourceRules {
         &self.rules

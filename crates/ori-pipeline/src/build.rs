@@ -156,12 +156,8 @@ pub fn build_assets(
         run_options.sources.clone(),
     ));
     run_options.shared_sources = Some(sources.clone());
-    if sources.dropped() > 0 {
-        observer.note(&format!(
-            "warning: stat memo {}: {} damaged or mismatched entries dropped; those files are read again",
-            cache.stat_memo_path().display(),
-            sources.dropped()
-        ));
+    if let Some(warning) = sources.damage_warning() {
+        observer.note(&warning);
     }
     let memo = AssetMemo::open(&cache, &Registry::new(limits), limits, &run_options.sources);
     if let Some(why) = &memo.damaged {
