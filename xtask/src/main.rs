@@ -235,6 +235,7 @@ fn folders(
     let access = ori_report::SourceAccess {
         rules: c.limits.source_rules(&assets).map_err(|e| e.to_string())?,
         limits: c.limits.mesh(),
+        loaded_stat_memo: None,
         stat_memo: Some(
             cache
                 .unwrap_or_else(|| c.resolve(&c.cache.dir))
@@ -252,16 +253,25 @@ fn folders(
     ))
 }
 
-/// Write the HTML report; print its path and every package that failed its check. `Err`
-/// when it could not be written or a package is invalid.
+/// Write the HTML report (from the release a build just wrote, when given; from the output
+/// folder otherwise); print its path and every package that failed its check. `Err` when it
+/// could not be written or a package is invalid.
 fn write_report(
     config: &std::path::Path,
     out: Option<PathBuf>,
     assets: Option<PathBuf>,
     cache: Option<PathBuf>,
+    built: Option<ori_pipeline::WrittenRelease>,
 ) -> Result<PathBuf, String> {
-    let (out, assets, access, options) = folders(config, out, assets, cache)?;
-    let written = ori_report::write_report(&out, &assets, &access, &options)?;
+    let (out, assets, mut access, options) = folders(config, out, assets, cache)?;
+    let written = match built {
+        Some(built) => {
+            access.loaded_stat_memo = Some(built.sources);
+            let (report, release) = (&built.report, &built.release);
+            ori_report::write_report_of(report, release, &out, &assets, &access, &options)?
+        }
+        None => ori_report::write_report(&out, &assets, &access, &options)?,
+    };
     if written.invalid_packages.is_empty() {
         return Ok(written.index);
     }
@@ -278,7 +288,7 @@ fn write_report(
 
 /// Exit status 0: report written; 1: it could not be, or a package in the folder is invalid.
 fn report(dir: Option<PathBuf>, config: &std::path::Path, assets: Option<PathBuf>) -> ExitCode {
-    match write_report(config, dir, assets, None) {
+    match write_report(config, dir, assets, None, None) {
         Ok(index) => {
             println!("report: {}", index.display());
             ExitCode::SUCCESS
@@ -348,14 +358,15 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
     };
     let observer = Progress::new(progress, args.explain || args.dry_run);
     match build_assets(&options, &observer) {
-        Ok(summary) => {
+        Ok(mut summary) => {
             for w in &summary.warnings {
                 eprintln!("warning: {w}");
             }
             println!("{}", format_summary(&summary));
             if want_report {
                 let started = std::time::Instant::now();
-                match write_report(&config_path, out_arg, assets_arg, cache_arg) {
+                let built = summary.written.take();
+                match write_report(&config_path, out_arg, assets_arg, cache_arg, built) {
                     Ok(index) => println!(
                         "html report: {} ({:.2} s)",
                         index.display(),

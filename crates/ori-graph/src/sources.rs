@@ -303,8 +303,15 @@ impl SourceHasher {
         let plain = !path
             .components()
             .any(|c| matches!(c, std::path::Component::ParentDir));
-        let inside = self.rules.root.as_ref().is_none_or(|r| path.starts_with(r));
-        if !plain || !inside || !self.plain_folder(path.parent()?) {
+        // A relative path names the same file as long as this process does not change
+        // folders, which it never does.
+        let absolute = std::path::absolute(path).ok()?;
+        let inside = self
+            .rules
+            .root
+            .as_ref()
+            .is_none_or(|r| absolute.starts_with(r));
+        if !plain || !inside || !self.plain_folder(absolute.parent()?) {
             return None;
         }
         let meta = fs::symlink_metadata(path).ok()?;
@@ -419,7 +426,7 @@ impl std::fmt::Debug for SourceHasher {
 
 /// Which version of a file is on disk: any edit, and any atomic rewrite (a new inode),
 /// gives another. A memo saved by another builder since it was loaded is told this way.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct FileVersion(Stamp);
 
 impl FileVersion {

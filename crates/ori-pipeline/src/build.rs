@@ -18,7 +18,7 @@ use crate::report::{Reading, collect};
 use crate::runs::Runs;
 use crate::shard::{self, Shard};
 use crate::stages::Registry;
-use crate::summary::{BuildSummary, RemoteSummary, StageLine};
+use crate::summary::{BuildSummary, RemoteSummary, StageLine, WrittenRelease};
 use crate::unchanged::{AssetMemo, Looked, Unchanged};
 use crate::{PipelineError, outputs, release, search};
 
@@ -300,10 +300,12 @@ pub fn build_assets(
     }
     let mut warnings = Vec::new();
     let mut report_path = None;
+    let mut release_written = None;
     if write_release {
         let written = release::write(&out_dir, &packages, &release_memo)
             .map_err(|(path, message)| PipelineError::Output { path, message })?;
         warnings.extend(written.warnings);
+        release_written = Some(written.release);
         let path = out_dir.join(REPORT_JSON);
         let json = serde_json::to_vec_pretty(&report).expect("report serialises");
         ori_graph::write_atomic(&path, &json).map_err(|e| PipelineError::Output {
@@ -343,5 +345,10 @@ pub fn build_assets(
             Mode::Release | Mode::Assemble => None,
         },
         remote: remote.as_deref().map(RemoteSummary::of),
+        written: release_written.map(|release| WrittenRelease {
+            report,
+            release,
+            sources,
+        }),
     })
 }

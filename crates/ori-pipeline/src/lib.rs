@@ -43,7 +43,7 @@ use std::path::{Path, PathBuf};
 pub use build::{BuildOptions, Mode, build_assets};
 pub use config::Config;
 pub use discover::{Asset, discover};
-pub use summary::{BuildSummary, format_summary};
+pub use summary::{BuildSummary, WrittenRelease, format_summary};
 
 /// Errors that stop a build before or after its jobs run. Job failures are not errors here:
 /// they are reported per job and counted in [`BuildSummary`].

@@ -2,8 +2,10 @@
 //! traffic, and the table printed from them.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
-use ori_graph::{RemoteCache, RemoteMode, RemoteStats};
+use ori_graph::{RemoteCache, RemoteMode, RemoteStats, SourceHasher};
+use ori_release::{BuildReport, Release};
 use serde::Serialize;
 
 use crate::shard;
@@ -28,6 +30,19 @@ pub struct BuildSummary {
     pub shard: Option<(shard::Shard, usize)>,
     /// What the remote cache did, when one is configured.
     pub remote: Option<RemoteSummary>,
+    /// What the build wrote into its output folder, for a report made right after it
+    /// (`None` when it wrote no release).
+    #[serde(skip)]
+    pub written: Option<WrittenRelease>,
+}
+
+/// A release as a build wrote it, and the build's source hashes: what the report is made
+/// from, kept in memory so that a report made right after the build reads none of it again.
+#[derive(Clone, Debug)]
+pub struct WrittenRelease {
+    pub report: BuildReport,
+    pub release: Release,
+    pub sources: Arc<SourceHasher>,
 }
 
 /// The remote cache's part in a build.

@@ -126,11 +126,48 @@ fn asset_link(i: usize) -> String {
     }
 }
 
+/// Version of the pages' layout: bump it when the HTML that [`page`] writes changes, so that
+/// the pages kept from an older report are made again.
+const PAGES_VERSION: u32 = 1;
+
+/// How many pages a report of `assets` assets has.
+pub fn page_count(assets: usize) -> usize {
+    assets.div_ceil(ASSETS_PER_PAGE).max(1)
+}
+
+/// The assets whose sections page `k` holds.
+fn sections(k: usize, assets: usize) -> std::ops::Range<usize> {
+    ((k - 1) * ASSETS_PER_PAGE).min(assets)..(k * ASSETS_PER_PAGE).min(assets)
+}
+
+/// What page `k` of `count` is made from: its layout and the rows it shows, each given as its
+/// summary's JSON (`rows[i]` for asset `i`): every row for the index, which holds the summary
+/// table, and its own sections' for the other pages. Equal stamps, equal pages.
+pub fn page_stamp(k: usize, count: usize, rows: &[Vec<u8>]) -> [u8; 32] {
+    let mut h = blake3::Hasher::new();
+    h.update(&PAGES_VERSION.to_le_bytes());
+    h.update(STYLE.as_bytes());
+    h.update(SCRIPT.as_bytes());
+    for v in [k, count, rows.len(), ROWS_SHOWN, ASSETS_PER_PAGE] {
+        h.update(&(v as u64).to_le_bytes());
+    }
+    let shown = if k == 1 {
+        0..rows.len()
+    } else {
+        sections(k, rows.len())
+    };
+    for row in &rows[shown] {
+        h.update(&(row.len() as u64).to_le_bytes());
+        h.update(row);
+    }
+    *h.finalize().as_bytes()
+}
+
 /// Every page of the report: (file name, HTML), the index first.
-pub fn pages(report: &ReportSummary) -> Vec<(String, String)> {
-    let count = report.assets.len().div_ceil(ASSETS_PER_PAGE).max(1);
+#[cfg(test)]
+fn pages(report: &ReportSummary) -> Vec<(String, String)> {
+    let count = page_count(report.assets.len());
     (1..=count)
-        .into_par_iter()
         .map(|k| (page_file(k), page(report, k, count)))
         .collect()
 }
@@ -154,7 +191,8 @@ fn page_links(h: &mut String, report: &ReportSummary, current: usize, count: usi
     h.push_str("</p>\n");
 }
 
-fn page(report: &ReportSummary, k: usize, count: usize) -> String {
+/// Page `k` of `count` (1: the index).
+pub fn page(report: &ReportSummary, k: usize, count: usize) -> String {
     let mut h = String::new();
     let n = report.assets.len();
     let failed = report.assets.iter().filter(|a| a.status != "ok").count();
@@ -164,7 +202,7 @@ fn page(report: &ReportSummary, k: usize, count: usize) -> String {
          <title>ORI build report</title><style>{STYLE}</style></head><body>\n\
          <h1>ORI build report</h1>\n"
     );
-    let sections = (k - 1) * ASSETS_PER_PAGE..(k * ASSETS_PER_PAGE).min(n);
+    let sections = sections(k, n);
     if k == 1 {
         let _ = writeln!(
             h,

@@ -21,6 +21,7 @@ mod relief;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use ori_eval::{EvalParams, Evaluator};
 use ori_release::{AssetReport, BuildReport, RELEASE_JSON, REPORT_JSON, Release, ReleaseEntry};
@@ -40,20 +41,25 @@ pub struct SourceAccess {
     /// folder), so that the report reads no source the build already hashed; `None`: read
     /// them.
     pub stat_memo: Option<PathBuf>,
+    /// That memo as the build that just ran holds it, used instead of loading the file.
+    pub loaded_stat_memo: Option<Arc<ori_graph::SourceHasher>>,
 }
 
 /// Source hashes, from the stat memo where there is one.
 struct SourceHashes<'a> {
     access: &'a SourceAccess,
-    memo: Option<ori_graph::SourceHasher>,
+    memo: Option<Arc<ori_graph::SourceHasher>>,
 }
 
 impl<'a> SourceHashes<'a> {
     fn open(access: &'a SourceAccess) -> SourceHashes<'a> {
-        let memo = access
-            .stat_memo
-            .as_ref()
-            .map(|path| ori_graph::SourceHasher::new(path.clone(), access.rules.clone()));
+        let memo = access.loaded_stat_memo.clone().or_else(|| {
+            let path = access.stat_memo.clone()?;
+            Some(Arc::new(ori_graph::SourceHasher::new(
+                path,
+                access.rules.clone(),
+            )))
+        });
         SourceHashes { access, memo }
     }
 
@@ -239,6 +245,19 @@ pub fn write_report(
 ) -> Result<Written, String> {
     let build: BuildReport = read_json(&out_dir.join(REPORT_JSON))?;
     let release: Release = read_json(&out_dir.join(RELEASE_JSON))?;
+    write_report_of(&build, &release, out_dir, assets_root, access, options)
+}
+
+/// [`write_report`] from the build's `report.json` and `release.json` as it wrote them into
+/// `out_dir`, at hand in memory.
+pub fn write_report_of(
+    build: &BuildReport,
+    release: &Release,
+    out_dir: &Path,
+    assets_root: &Path,
+    access: &SourceAccess,
+    options: &ReportOptions,
+) -> Result<Written, String> {
     let dir = out_dir.join(ori_release::REPORT_DIR);
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let entries: HashMap<&str, &ReleaseEntry> = release
@@ -264,16 +283,14 @@ pub fn write_report(
     remove_unused_picture_folders(&dir, &summaries);
     let invalid_packages = summaries.iter().filter_map(|s| s.invalid.clone()).collect();
     let summary = ReportSummary { assets: summaries };
-    let json = serde_json::to_vec_pretty(&summary).expect("summary serialises");
-    write_file(&dir.join("report.json"), &json)?;
-    let pages = html::pages(&summary);
-    remove_unused_pages(&dir, pages.len());
-    // The first failure in page order, whatever order the threads met them in.
-    let written: Vec<Result<(), String>> = pages
+    // Each asset's summary as JSON once: for report.json and for the pages' stamps.
+    let rows: Vec<Vec<u8>> = summary
+        .assets
         .par_iter()
-        .map(|(file, page)| write_file(&dir.join(file), page.as_bytes()))
+        .map(|a| serde_json::to_vec(a).expect("summary serialises"))
         .collect();
-    written.into_iter().collect::<Result<(), String>>()?;
+    write_file(&dir.join("report.json"), &summary_json(&rows))?;
+    write_pages(&dir, &summary, &rows)?;
     Ok(Written {
         index: dir.join(html::INDEX),
         invalid_packages,
@@ -308,14 +325,90 @@ fn remove_unused_picture_folders(dir: &Path, summaries: &[AssetSummary]) {
     };
     for entry in entries.filter_map(Result::ok) {
         let name = entry.file_name().to_string_lossy().into_owned();
+        if used.contains(&name) || !is_picture_folder(&name) {
+            continue;
+        }
         let path = entry.path();
-        let ours = is_picture_folder(&name)
-            && entry.file_type().is_ok_and(|t| t.is_dir())
-            && path.join("pictures.json").is_file();
-        if ours && !used.contains(&name) {
+        let ours =
+            entry.file_type().is_ok_and(|t| t.is_dir()) && path.join("pictures.json").is_file();
+        if ours {
             let _ = std::fs::remove_dir_all(&path);
         }
     }
+}
+
+/// `report/report.json` from each asset's summary as JSON (`{"assets": [...]}`).
+fn summary_json(rows: &[Vec<u8>]) -> Vec<u8> {
+    let mut json = b"{\"assets\":[".to_vec();
+    for (i, row) in rows.iter().enumerate() {
+        if i > 0 {
+            json.push(b',');
+        }
+        json.extend_from_slice(row);
+    }
+    json.extend_from_slice(b"]}\n");
+    json
+}
+
+/// The pages' memo in the report folder: the stamp each page was made from
+/// ([`html::page_stamp`]) and the version of its file as written, so that a page whose rows
+/// did not change is not made or written again.
+const PAGES_MEMO: &str = "pages.json";
+
+#[derive(Default, Serialize, Deserialize)]
+struct PagesMemo {
+    pages: HashMap<String, KeptPage>,
+}
+
+#[derive(Clone, Copy, Serialize, Deserialize)]
+struct KeptPage {
+    stamp: [u8; 32],
+    file: ori_graph::FileVersion,
+}
+
+/// Write the report's pages, each only when the memo does not say its file already holds it;
+/// remove the pages of a larger earlier report.
+fn write_pages(dir: &Path, summary: &ReportSummary, rows: &[Vec<u8>]) -> Result<(), String> {
+    let count = html::page_count(rows.len());
+    remove_unused_pages(dir, count);
+    let memo_path = dir.join(PAGES_MEMO);
+    // A memo that cannot be read costs only making every page again.
+    let memo: PagesMemo = std::fs::read(&memo_path)
+        .ok()
+        .and_then(|bytes| serde_json::from_slice(&bytes).ok())
+        .unwrap_or_default();
+    let written: Vec<Result<(String, KeptPage), String>> = (1..=count)
+        .into_par_iter()
+        .map(|k| {
+            let file = html::page_file(k);
+            let path = dir.join(&file);
+            let stamp = html::page_stamp(k, count, rows);
+            let version = ori_graph::FileVersion::of(&path);
+            if let Some(&kept) = memo.pages.get(&file)
+                && kept.stamp == stamp
+                && version == Some(kept.file)
+            {
+                return Ok((file, kept));
+            }
+            write_file(&path, html::page(summary, k, count).as_bytes())?;
+            let version = ori_graph::FileVersion::of(&path)
+                .ok_or_else(|| format!("{}: gone after writing it", path.display()))?;
+            Ok((
+                file,
+                KeptPage {
+                    stamp,
+                    file: version,
+                },
+            ))
+        })
+        .collect();
+    // The first failure in page order, whatever order the threads met them in; the memo
+    // kept on disk then names only files this report did not write.
+    let pages = written.into_iter().collect::<Result<_, String>>()?;
+    let json = serde_json::to_vec(&PagesMemo { pages }).expect("memo serialises");
+    // A memo that cannot be written costs only making every page again next time.
+    let _ = ori_graph::write_atomic(&memo_path, &json);
+    Ok(())
 }
 
 /// Remove the asset pages beyond the `count` pages this report has (from a larger build).
@@ -694,5 +787,76 @@ mod tests {
         ] {
             assert!(!is_picture_folder(other), "{other}");
         }
+    }
+
+    fn summary_of(names: usize) -> ReportSummary {
+        ReportSummary {
+            assets: (0..names)
+                .map(|i| AssetSummary {
+                    name: format!("f/{i:04}.obj"),
+                    status: "ok".into(),
+                    ..AssetSummary::default()
+                })
+                .collect(),
+        }
+    }
+
+    fn rows(summary: &ReportSummary) -> Vec<Vec<u8>> {
+        let rows = summary.assets.iter();
+        rows.map(|a| serde_json::to_vec(a).unwrap()).collect()
+    }
+
+    fn versions(dir: &Path, count: usize) -> Vec<Option<ori_graph::FileVersion>> {
+        let files = (1..=count).map(html::page_file);
+        files.map(|f| ori_graph::FileVersion::of(&dir.join(f))).collect()
+    }
+
+    /// Every page holds what it would be made into now.
+    fn assert_current(dir: &Path, summary: &ReportSummary) {
+        let count = html::page_count(summary.assets.len());
+        for k in 1..=count {
+            let file = dir.join(html::page_file(k));
+            let written = std::fs::read_to_string(&file).unwrap();
+            assert!(written == html::page(summary, k, count), "{}", file.display());
+        }
+    }
+
+    #[test]
+    fn only_pages_whose_rows_changed_are_written_again() {
+        let dir = tempfile::tempdir().unwrap();
+        let dir = dir.path();
+        let mut summary = summary_of(2 * html::ASSETS_PER_PAGE + 7);
+        write_pages(dir, &summary, &rows(&summary)).unwrap();
+        assert_current(dir, &summary);
+        let first = versions(dir, 3);
+        assert!(first.iter().all(Option::is_some));
+
+        // Nothing changed: nothing written.
+        write_pages(dir, &summary, &rows(&summary)).unwrap();
+        assert_eq!(versions(dir, 3), first);
+
+        // An asset of the third page: its page and the index (which lists every asset).
+        summary.assets[2 * html::ASSETS_PER_PAGE + 1].faces = Some(12);
+        write_pages(dir, &summary, &rows(&summary)).unwrap();
+        assert_current(dir, &summary);
+        let second = versions(dir, 3);
+        assert!(second[0] != first[0] && second[1] == first[1] && second[2] != first[2]);
+
+        // A page changed by someone else is made again; a removed one too.
+        std::fs::write(dir.join(html::page_file(2)), "edited").unwrap();
+        std::fs::remove_file(dir.join(html::page_file(3))).unwrap();
+        write_pages(dir, &summary, &rows(&summary)).unwrap();
+        assert_current(dir, &summary);
+
+        // A damaged memo costs making every page again, nothing else.
+        std::fs::write(dir.join(PAGES_MEMO), "{").unwrap();
+        write_pages(dir, &summary, &rows(&summary)).unwrap();
+        assert_current(dir, &summary);
+
+        // Fewer assets: the pages beyond are removed.
+        let fewer = summary_of(3);
+        write_pages(dir, &fewer, &rows(&fewer)).unwrap();
+        assert_current(dir, &fewer);
+        assert!(!dir.join(html::page_file(2)).exists());
     }
 }
