@@ -280,11 +280,13 @@ fn a_rebuild_repairs_a_tampered_package_and_ignores_a_damaged_release_memo() {
     assert_eq!(ran(&out, "package"), 0, "{}", text(&out));
     same_release(&clean, &tree(&p.path("out")), "after repairing a package");
     // A damaged memo of checks is checked again, not believed.
-    let checked = p.path("cache/release-checked.json");
-    let mut memo = fs::read(&checked).unwrap();
-    let middle = memo.len() / 2;
-    memo[middle] ^= 1;
-    fs::write(&checked, memo).unwrap();
+    for shard in fs::read_dir(p.path("cache/release-checks")).unwrap() {
+        let shard = shard.unwrap().path();
+        let mut memo = fs::read(&shard).unwrap();
+        let middle = memo.len() / 2;
+        memo[middle] ^= 1;
+        fs::write(&shard, memo).unwrap();
+    }
     fs::write(p.path("cache/release-stat-memo.json"), b"not json").unwrap();
     fs::remove_file(&package).unwrap();
     ok(&p.build(&[]));

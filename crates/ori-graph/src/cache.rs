@@ -6,6 +6,7 @@
 //! ac/12/1234....json  action entry of the job whose key is 1234...
 //! jobs/5678....json   last run of one (asset, stage), used only to explain re-runs
 //! stat-memo.json      (size, mtime, inode) -> content hash of source files
+//! <memo>/NN.json      shards of the memo maps its users keep (`MemoMap`)
 //! ```
 //! Every write goes to a unique temporary file that is renamed into place, so readers (and
 //! other builders sharing the directory) see either nothing or a complete file. Every read is
@@ -188,19 +189,6 @@ impl Cache {
         let _ = remove_any(&self.blob_path(hash));
     }
 
-    /// A checked JSON file `name` at the cache's root (a memo a user of the cache keeps:
-    /// damage is reported, and the file removed, like a damaged action entry).
-    pub fn read_memo<T: for<'de> Deserialize<'de>>(&self, name: &str) -> Result<T, ReadError> {
-        read_checked_json(&self.root.join(name))
-    }
-
-    /// Write the checked JSON file `name` at the cache's root, atomically (compact: memos
-    /// are large and read by programs only).
-    pub fn write_memo<T: Serialize>(&self, name: &str, value: &T) -> io::Result<()> {
-        let json = serde_json::to_string(value).map_err(io::Error::other)?;
-        write_entry(&self.root.join(name), &checked(json))
-    }
-
     /// The action entry for `key`, verified.
     pub fn read_action(&self, key: &ContentHash) -> Result<ActionEntry, ReadError> {
         read_checked_json(&self.action_path(key))
@@ -230,7 +218,7 @@ pub(crate) fn encode_checked_json<T: Serialize>(value: &T) -> io::Result<Vec<u8>
 }
 
 /// JSON text behind the line that checks it.
-fn checked(json: String) -> Vec<u8> {
+pub(crate) fn checked(json: String) -> Vec<u8> {
     format!("{}\n{json}\n", ContentHash::of(json.as_bytes())).into_bytes()
 }
 
@@ -255,7 +243,7 @@ fn write_checked_json<T: Serialize>(path: &Path, value: &T) -> io::Result<()> {
 
 /// Write a cache file atomically. Whatever else stands in its place (a folder, a link, a
 /// file where its folder should be) is damage: it is removed first. Errors name the file.
-fn write_entry(path: &Path, bytes: &[u8]) -> io::Result<()> {
+pub(crate) fn write_entry(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let named = |e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", path.display()));
     if let Some(dir) = path.parent()
         && fs::symlink_metadata(dir).is_ok_and(|m| !m.is_dir())
@@ -301,7 +289,7 @@ fn read_entry(path: &Path) -> Result<Vec<u8>, ReadError> {
     }
 }
 
-fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, ReadError> {
+pub(crate) fn read_checked_json<T: for<'de> Deserialize<'de>>(path: &Path) -> Result<T, ReadError> {
     let bytes = read_entry(path)?;
     decode_checked_json(&bytes).map_err(|reason| {
         let _ = fs::remove_file(path);

@@ -12,6 +12,7 @@
 mod cache;
 mod hash;
 mod job;
+mod memo;
 mod outcome;
 mod remote;
 mod run;
@@ -25,6 +26,7 @@ pub use cache::{
 };
 pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec};
+pub use memo::{MEMO_SHARDS, MemoKey, MemoMap};
 pub use outcome::{JobResult, Observer, Outcome, RunReason, Silent};
 pub use remote::{Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore};
 pub use run::{Build, MAX_THREADS, RunOptions, StageSummary, run};

@@ -132,6 +132,9 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
     })
 }
 
+/// Memo files of earlier versions, now memo folders: removed by a build that saves its memos.
+const LEGACY_MEMOS: [&str; 2] = ["asset-memo.json", "release-checked.json"];
+
 /// Run the pipeline: read the configuration, discover assets, run the graph, and write the
 /// release and `report.json` into the output folder (as `options.mode` says). `observer`
 /// is told about every job of every run.
@@ -161,7 +164,9 @@ pub fn build_assets(
     }
     let memo = AssetMemo::open(&cache, &Registry::new(limits), limits, &run_options.sources);
     if let Some(why) = &memo.damaged {
-        observer.note(&format!("warning: {why}; every asset is looked at again"));
+        observer.note(&format!(
+            "warning: asset memo: {why}; the assets it held go through the graph"
+        ));
     }
     let release_memo = release::ReleaseMemo::open(&cache);
     let write_release = !options.dry_run && !matches!(options.mode, Mode::Shard(_));
@@ -317,6 +322,9 @@ pub fn build_assets(
     if !options.dry_run {
         if options.mode == Mode::Release {
             memo.keep_only(&assets.iter().map(|a| a.name.as_str()).collect());
+        }
+        for legacy in LEGACY_MEMOS {
+            let _ = std::fs::remove_file(runs.cache.root().join(legacy));
         }
         let saved = memo.save().and_then(|()| sources.save());
         if let Err(e) = saved {

@@ -4,11 +4,10 @@
 //! Nothing here depends on time, paths outside the folder or thread count: the same packages
 //! give the same folder, byte for byte.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
-use ori_graph::{BlobRef, Cache, ContentHash, FileVersion, SourceHasher, SourceRules};
+use ori_graph::{BlobRef, Cache, ContentHash, MemoMap, SourceHasher, SourceRules};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use walkdir::WalkDir;
@@ -88,26 +87,22 @@ pub fn entry(name: &str, bytes: &[u8]) -> Result<ReleaseEntry, String> {
 /// hash), and a stat memo of the release folders' files (the same sealed memo, with its racy
 /// window, that sources use).
 pub struct ReleaseMemo {
-    cache: Cache,
     /// Checks by package hash, as loaded, and those this build made.
-    checked: BTreeMap<ContentHash, Checked>,
-    /// The checks file's version when loaded (see [`ReleaseMemo::save`]).
-    version: Option<FileVersion>,
-    learnt: Mutex<BTreeMap<ContentHash, Checked>>,
+    checked: MemoMap<ContentHash, Checked>,
     files: SourceHasher,
 }
 
-/// The checks' file name under the cache root.
-const CHECKED_MEMO: &str = "release-checked.json";
+/// The checks' folder under the cache root (an [`ori_graph::MemoMap`] by package hash).
+const CHECKED_MEMO: &str = "release-checks";
+
+/// Bumped when what a check records changes.
+const CHECKED_VERSION: u32 = 1;
 
 impl ReleaseMemo {
     pub fn open(cache: &Cache) -> ReleaseMemo {
         ReleaseMemo {
-            cache: cache.clone(),
             // A damaged memo only costs checking again.
-            version: FileVersion::of(&cache.root().join(CHECKED_MEMO)),
-            checked: cache.read_memo(CHECKED_MEMO).unwrap_or_default(),
-            learnt: Mutex::new(BTreeMap::new()),
+            checked: MemoMap::open(cache.root().join(CHECKED_MEMO), CHECKED_VERSION),
             files: SourceHasher::new(
                 cache.root().join("release-stat-memo.json"),
                 SourceRules::default(),
@@ -133,26 +128,13 @@ impl ReleaseMemo {
 
     /// Remember a check (saved with [`ReleaseMemo::save`]).
     fn remember(&self, checked: &Checked, hash: &ContentHash) {
-        self.learnt.lock().unwrap().insert(*hash, checked.clone());
+        self.checked.set(*hash, Some(checked.clone()));
     }
 
-    /// Write the checks this build made into the memo file, merged with those another
-    /// builder may have written since it was loaded (read again only then).
+    /// Write the checks this build made into the memo, merged with those another builder
+    /// may have written since it was loaded.
     fn save(&self) -> std::io::Result<()> {
-        let learnt = self.learnt.lock().unwrap();
-        if learnt.is_empty() {
-            return Ok(());
-        }
-        let written: BTreeMap<ContentHash, Checked>;
-        let base = if FileVersion::of(&self.cache.root().join(CHECKED_MEMO)) == self.version {
-            &self.checked
-        } else {
-            written = self.cache.read_memo(CHECKED_MEMO).unwrap_or_default();
-            &written
-        };
-        let mut all: BTreeMap<&ContentHash, &Checked> = base.iter().collect();
-        all.extend(learnt.iter());
-        self.cache.write_memo(CHECKED_MEMO, &all)
+        self.checked.save()
     }
 
     /// Whether the file at `path` holds the content `blob` (from the stat memo when the file

@@ -6,10 +6,9 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
-use std::sync::Mutex;
 
 use ori_graph::{
-    BlobRef, Build, Cache, ContentHash, DiscoveredFile, FileVersion, Graph, Outcome, SourceHasher,
+    BlobRef, Build, Cache, ContentHash, DiscoveredFile, Graph, MemoMap, Outcome, SourceHasher,
     SourceRules, canonical_json,
 };
 use ori_release::{AssetReport, AssetStatus, JobStatus};
@@ -22,8 +21,8 @@ use crate::release::BuiltPackage;
 use crate::stages::Registry;
 use crate::stages::package::tool;
 
-/// The memo's file name under the cache root.
-pub const ASSET_MEMO: &str = "asset-memo.json";
+/// The memo's folder under the cache root (an [`ori_graph::MemoMap`] by asset name).
+pub const ASSET_MEMO: &str = "asset-memo";
 
 /// Bumped when what a key covers changes.
 const MEMO_VERSION: u32 = 1;
@@ -40,12 +39,6 @@ struct Remembered {
     report: AssetReport,
     /// Its jobs' warnings, each with the label of the job that printed it.
     warnings: Vec<(String, String)>,
-}
-
-#[derive(Default, Serialize, Deserialize)]
-struct MemoFile<K: Ord = String, R = Remembered> {
-    version: u32,
-    assets: BTreeMap<K, R>,
 }
 
 /// An asset found unchanged: what its build gives.
@@ -76,12 +69,8 @@ pub struct AssetMemo {
     cache: Cache,
     /// Hash of what every key shares: the tool, the stages' versions, limits and rules.
     common: ContentHash,
-    known: BTreeMap<String, Remembered>,
-    /// The memo file's version when loaded (see [`AssetMemo::save`]).
-    version: Option<FileVersion>,
-    /// What this build learnt: new entries, and the names to forget (`None`).
-    learnt: Mutex<BTreeMap<String, Option<Remembered>>>,
-    /// Why the memo file could not be used, if it could not.
+    known: MemoMap<String, Remembered>,
+    /// Why some of the memo could not be used, if it could not.
     pub damaged: Option<String>,
 }
 
@@ -102,18 +91,12 @@ impl AssetMemo {
             "limits": format!("{limits:?}"),
             "sources": format!("{rules:?}"),
         });
-        let version = FileVersion::of(&cache.root().join(ASSET_MEMO));
-        let (known, damaged) = match cache.read_memo::<MemoFile>(ASSET_MEMO) {
-            Ok(file) if file.version == MEMO_VERSION => (file.assets, None),
-            Ok(_) | Err(ori_graph::ReadError::Missing) => (BTreeMap::new(), None),
-            Err(e) => (BTreeMap::new(), Some(e.to_string())),
-        };
+        let known = MemoMap::open(cache.root().join(ASSET_MEMO), MEMO_VERSION);
+        let damaged = (!known.damaged.is_empty()).then(|| known.damaged.join("; "));
         AssetMemo {
             cache: cache.clone(),
             common: ContentHash::of(canonical_json(&common).as_bytes()),
             known,
-            version,
-            learnt: Mutex::new(BTreeMap::new()),
             damaged,
         }
     }
@@ -191,50 +174,22 @@ impl AssetMemo {
     ) {
         let name = &jobs.asset.name;
         let entry = remembered(pending, sources, (graph, build), jobs, report, package);
-        if entry.is_some() || self.known.contains_key(name) {
-            self.learnt.lock().unwrap().insert(name.clone(), entry);
+        if entry.is_some() || self.known.get(name).is_some() {
+            self.known.set(name.clone(), entry);
         }
     }
 
     /// Forget every asset not in `kept` (a build of every asset: the others are gone).
     pub fn keep_only(&self, kept: &BTreeSet<&str>) {
-        let mut learnt = self.learnt.lock().unwrap();
         for name in self.known.keys().filter(|n| !kept.contains(n.as_str())) {
-            learnt.insert(name.clone(), None);
+            self.known.set(name.clone(), None);
         }
     }
 
-    /// Write what this build learnt into the memo file, merged with what another builder may
-    /// have written since it was loaded. Nothing is written when nothing was learnt.
+    /// Write what this build learnt into the memo, merged with what another builder may have
+    /// written since it was loaded. Nothing is written when nothing was learnt.
     pub fn save(&self) -> std::io::Result<()> {
-        let learnt = self.learnt.lock().unwrap();
-        if learnt.is_empty() && self.damaged.is_none() {
-            return Ok(());
-        }
-        // Read again only when another builder wrote it since it was loaded.
-        let path = self.cache.root().join(ASSET_MEMO);
-        let written;
-        let base = if FileVersion::of(&path) == self.version {
-            &self.known
-        } else {
-            written = match self.cache.read_memo::<MemoFile>(ASSET_MEMO) {
-                Ok(file) if file.version == MEMO_VERSION => file.assets,
-                _ => BTreeMap::new(),
-            };
-            &written
-        };
-        let mut assets: BTreeMap<&String, &Remembered> = base.iter().collect();
-        for (name, entry) in learnt.iter() {
-            match entry {
-                Some(e) => assets.insert(name, e),
-                None => assets.remove(name),
-            };
-        }
-        let file = MemoFile {
-            version: MEMO_VERSION,
-            assets,
-        };
-        self.cache.write_memo(ASSET_MEMO, &file)
+        self.known.save()
     }
 }
 

@@ -808,7 +808,9 @@ mod tests {
 
     fn versions(dir: &Path, count: usize) -> Vec<Option<ori_graph::FileVersion>> {
         let files = (1..=count).map(html::page_file);
-        files.map(|f| ori_graph::FileVersion::of(&dir.join(f))).collect()
+        files
+            .map(|f| ori_graph::FileVersion::of(&dir.join(f)))
+            .collect()
     }
 
     /// Every page holds what it would be made into now.
@@ -817,7 +819,11 @@ mod tests {
         for k in 1..=count {
             let file = dir.join(html::page_file(k));
             let written = std::fs::read_to_string(&file).unwrap();
-            assert!(written == html::page(summary, k, count), "{}", file.display());
+            assert!(
+                written == html::page(summary, k, count),
+                "{}",
+                file.display()
+            );
         }
     }
 
