@@ -165,24 +165,41 @@ fn measure(dir: &Path, models: &[Model], assets: usize, runs: usize) -> Result<R
         noops.push(noop);
     }
 
-    // Move the middle asset's vertex by as many ulps as no copy has: all its jobs run again.
+    // Move the middle asset's vertex by as many ulps as no copy has (another count each
+    // time): all its jobs run again. Each edit is also built alone, cold, in its own project
+    // and cache.
     let edited = assets / 2;
     let (model, rel) = path_of(edited);
-    let moved = model.moved(assets as u32 + 1)?;
-    eprintln!("catalogue of {assets}: one asset edited");
-    write(&dir.join(&rel), &moved)?;
-    let edit = build(&config)?;
-    if edit.ingests_ran != 1 {
-        return Err(format!(
-            "the edited rebuild ran {} ingest jobs, not 1",
-            edit.ingests_ran
-        ));
+    let (mut edits, mut alones) = (Vec::new(), Vec::new());
+    for run in 1..=runs {
+        let moved = model.moved((assets + run) as u32)?;
+        eprintln!("catalogue of {assets}: one asset edited ({run} of {runs})");
+        write(&dir.join(&rel), &moved)?;
+        let edit = build(&config)?;
+        if edit.ingests_ran != 1 {
+            return Err(format!(
+                "the edited rebuild ran {} ingest jobs, not 1",
+                edit.ingests_ran
+            ));
+        }
+        edits.push(edit);
+        let alone = dir.join("alone");
+        if alone.exists() {
+            std::fs::remove_dir_all(&alone).map_err(|e| format!("{}: {e}", alone.display()))?;
+        }
+        write(&alone.join("pipeline.toml"), CONFIG.as_bytes())?;
+        write(&alone.join(&rel), &moved)?;
+        alones.push(build(&alone.join("pipeline.toml"))?.seconds);
     }
-    // The same edited file alone, cold, in its own project and cache.
-    let alone = dir.join("alone");
-    write(&alone.join("pipeline.toml"), CONFIG.as_bytes())?;
-    write(&alone.join(&rel), &moved)?;
-    let edited_alone = build(&alone.join("pipeline.toml"))?;
+    let edit = Timed {
+        seconds: median(edits.iter().map(|t| t.seconds).collect()),
+        peak_mib: edits
+            .iter()
+            .map(|t| t.peak_mib)
+            .collect::<Option<Vec<f64>>>()
+            .map(median),
+        ingests_ran: 1,
+    };
     Ok(Row {
         assets,
         cold,
@@ -195,7 +212,7 @@ fn measure(dir: &Path, models: &[Model], assets: usize, runs: usize) -> Result<R
             .collect::<Option<Vec<f64>>>()
             .map(median),
         edit,
-        edited_alone_s: edited_alone.seconds,
+        edited_alone_s: median(alones),
     })
 }
 
@@ -234,7 +251,8 @@ fn print(rows: &[Row], runs: usize) {
     let mib = |m: Option<f64>| m.map_or_else(|| "n/a".into(), |m| format!("{m:.0}"));
     println!(
         "catalogue builds ({} threads; 1st no-op: the first after the cold build; no-op: median \
-         of the {runs} after it; edit: one asset's vertex moved)",
+         of the {runs} after it; edit: one asset's vertex moved, median of {runs}; alone: that \
+         asset built cold in its own project, median of {runs})",
         rayon::current_num_threads()
     );
     println!(
