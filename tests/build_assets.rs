@@ -422,3 +422,62 @@ fn a_bc4_package_carries_the_table_and_plt_of_the_depth_it_ships() {
     .unwrap();
     assert_eq!(package.manifest.plt.gc, held_out.worst_missed());
 }
+
+#[test]
+fn an_asset_that_misses_the_quality_gate_is_reported_and_the_build_exits_3() {
+    let p = Project::new(&["bunny", "box-vertex-colors"]);
+    let (bunny, boxes) = (
+        "bunny/bunny_npm_lowres.obj",
+        "box-vertex-colors/BoxVertexColors.glb",
+    );
+    let gate = "[gate]\nmax_texture_bytes = 1000\n\
+                [[overrides]]\nassets = \"box-*/**\"\ngate.max_texture_bytes = 100000000\n";
+    p.config(gate);
+    let out = p.build_with_report(&[]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(3), "{t}");
+    assert!(
+        t.contains(&format!("error: quality gate: {bunny}: "))
+            && t.contains("more than gate.max_texture_bytes = 1000")
+            && t.contains("1 asset(s) missed the quality gate"),
+        "{t}"
+    );
+    assert!(!t.contains(&format!("quality gate: {boxes}")), "{t}");
+    let report = p.report();
+    let missed = asset(&report, bunny)["gate"].as_array().unwrap();
+    assert_eq!(missed.len(), 1, "{report}");
+    assert!(asset(&report, boxes).get("gate").is_none());
+    // The release is written all the same, and the HTML report says what was missed.
+    let verified = Command::new(EXE)
+        .arg("verify")
+        .arg(p.path("out"))
+        .output()
+        .unwrap();
+    assert!(verified.status.success(), "{}", text(&verified));
+    let index = fs::read_to_string(p.path("out/report/index.html")).unwrap();
+    assert!(
+        index.contains("1 missed the quality gate") && index.contains("quality gate: "),
+        "the report names the miss"
+    );
+
+    // Unchanged assets (from the asset memo) are held to the gate too.
+    let out = p.build(&[]);
+    assert_eq!(out.status.code(), Some(3), "{}", text(&out));
+    assert_eq!(ran_all(&out), [0; 8]);
+
+    // The gate is in no job's key: changing it runs nothing.
+    p.config("[gate]\nmin_plt_px = 1\nmax_coverage_error_percent = 100\n");
+    let out = p.build(&[]);
+    ok(&out);
+    assert_eq!(ran_all(&out), [0; 8]);
+    assert!(p.report()["assets"][0].get("gate").is_none());
+
+    p.config("[gate]\nmin_plt_px = -1\n");
+    let out = p.build(&[]);
+    let t = text(&out);
+    assert_eq!(out.status.code(), Some(2), "{t}");
+    assert!(
+        t.contains("pipeline.toml") && t.contains("gate.min_plt_px"),
+        "{t}"
+    );
+}

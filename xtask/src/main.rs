@@ -378,9 +378,21 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
                     }
                 }
             }
+            for (asset, missed) in &summary.missed_gate {
+                for what in missed {
+                    eprintln!("error: quality gate: {asset}: {what}");
+                }
+            }
             if summary.failed_jobs > 0 {
                 eprintln!("error: {} job(s) failed (see above)", summary.failed_jobs);
                 ExitCode::from(1)
+            } else if !summary.missed_gate.is_empty() {
+                eprintln!(
+                    "error: {} asset(s) missed the quality gate ([gate] in {})",
+                    summary.missed_gate.len(),
+                    config_path.display()
+                );
+                ExitCode::from(3)
             } else {
                 ExitCode::SUCCESS
             }

@@ -7,11 +7,12 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use ori_graph::{BlobRef, Cache, Observer, Outcome, RemoteCache, RunOptions, SourceHasher};
-use ori_release::{AssetReport, AssetStatus, BuildReport, REPORT_JSON};
+use ori_release::{AssetReport, AssetStatus, BuildReport, REPORT_JSON, Release};
 use rayon::prelude::*;
 
 use crate::config::{Config, StageParams};
 use crate::discover::{Asset, discover};
+use crate::gate::GateParams;
 use crate::plan::{PlannedAsset, plan};
 use crate::release::BuiltPackage;
 use crate::report::{Reading, collect};
@@ -132,6 +133,22 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
     })
 }
 
+/// Note in each built asset's report entry what its package misses of its gate.
+fn check_gates(report: &mut BuildReport, release: &Release, gates: &HashMap<&str, GateParams>) {
+    let texture_bytes: HashMap<&str, u64> = release
+        .assets
+        .iter()
+        .map(|e| (e.name.as_str(), e.texture_bytes))
+        .collect();
+    for entry in &mut report.assets {
+        let gate = gates.get(entry.name.as_str());
+        let bytes = texture_bytes.get(entry.name.as_str());
+        if let (Some(gate), Some(quality), Some(&bytes)) = (gate, &entry.quality, bytes) {
+            entry.gate = gate.missed(quality, bytes);
+        }
+    }
+}
+
 /// Memo files of earlier versions, now memo folders: removed by a build that saves its memos.
 const LEGACY_MEMOS: [&str; 2] = ["asset-memo.json", "release-checked.json"];
 
@@ -195,6 +212,13 @@ pub fn build_assets(
         observer,
         stages: Vec::new(),
     };
+    // Each asset's gate, checked once its package is in the release.
+    let gates: HashMap<&str, GateParams> = assets
+        .iter()
+        .zip(&params)
+        .filter(|(_, p)| p.gate != GateParams::default())
+        .map(|(a, p)| (a.name.as_str(), p.gate.clone()))
+        .collect();
     let mut entries: Vec<Option<AssetReport>> = vec![None; assets.len()];
     let mut unchanged_packages: Vec<(usize, BuiltPackage<'static>)> = Vec::new();
     let mut changed = Vec::new();
@@ -280,7 +304,7 @@ pub fn build_assets(
     }
     packages.sort_by_key(|&(i, _)| i);
     let packages: Vec<BuiltPackage<'_>> = packages.into_iter().map(|(_, p)| p).collect();
-    let report = BuildReport {
+    let mut report = BuildReport {
         assets: entries.into_iter().flatten().collect(),
     };
 
@@ -310,6 +334,7 @@ pub fn build_assets(
         let written = release::write(&out_dir, &packages, &release_memo)
             .map_err(|(path, message)| PipelineError::Output { path, message })?;
         warnings.extend(written.warnings);
+        check_gates(&mut report, &written.release, &gates);
         release_written = Some(written.release);
         let path = out_dir.join(REPORT_JSON);
         let json = serde_json::to_vec_pretty(&report).expect("report serialises");
@@ -353,6 +378,12 @@ pub fn build_assets(
             Mode::Release | Mode::Assemble => None,
         },
         remote: remote.as_deref().map(RemoteSummary::of),
+        missed_gate: report
+            .assets
+            .iter()
+            .filter(|a| !a.gate.is_empty())
+            .map(|a| (a.name.clone(), a.gate.clone()))
+            .collect(),
         written: release_written.map(|release| WrittenRelease {
             report,
             release,

@@ -323,6 +323,10 @@ pub struct StageParams {
     /// `[hierarchy]`: a tree of ORIs instead of one (off by default).
     #[serde(default)]
     pub hierarchy: crate::hierarchy::HierarchyParams,
+    /// `[gate]`: the quality required of the package. Checked after the build, so no job's
+    /// key or package holds it.
+    #[serde(default, skip_serializing)]
+    pub gate: crate::gate::GateParams,
     /// `bake.resolution = "auto"`: the build picks the resolution (see `ori_plt::auto`);
     /// `bake.resolution` then holds the default until it does.
     #[serde(skip)]
@@ -559,6 +563,7 @@ fn to_params_at(mut table: toml::Table) -> Result<StageParams, ValueError> {
     params.bake.validate().map_err(|e| plain(e.to_string()))?;
     params.select.validate().map_err(|e| plain(e.to_string()))?;
     params.hierarchy.validate().map_err(plain)?;
+    params.gate.validate().map_err(plain)?;
     Ok(params)
 }
 

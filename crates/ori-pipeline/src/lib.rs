@@ -11,8 +11,8 @@
 //!    file per stage: its parameters, its artifacts, its `run`).
 //! 5. [`runs`]: run the graph (`ori_graph`) with the build's cache and observer.
 //! 6. [`report`]: `report.json` and the packages from the finished run; [`release`]: the
-//!    release folder; [`outputs`]: `--explode` and `--dump-maps`; [`summary`]: the table
-//!    printed at the end.
+//!    release folder; [`gate`]: what each asset misses of `[gate]`; [`outputs`]: `--explode`
+//!    and `--dump-maps`; [`summary`]: the table printed at the end.
 //!
 //! [`ori`] is the chain of steps that makes one ORI from a mesh (views, place, bake, select,
 //! plt); the stages run it one cached step per job, `eval-table` and the benches whole.
@@ -24,6 +24,7 @@
 pub mod build;
 pub mod config;
 pub mod discover;
+pub mod gate;
 pub mod gpu_select;
 pub mod hierarchy;
 pub mod ori;

@@ -192,6 +192,7 @@ fn collect_asset<'a>(
                 }
             })
             .collect(),
+        gate: Vec::new(),
     };
     let mut fail = |entry: &mut AssetReport, e: String| {
         unreadable += 1;

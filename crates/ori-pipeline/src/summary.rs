@@ -30,6 +30,8 @@ pub struct BuildSummary {
     pub shard: Option<(shard::Shard, usize)>,
     /// What the remote cache did, when one is configured.
     pub remote: Option<RemoteSummary>,
+    /// The assets whose packages miss their `[gate]`, each with what it misses.
+    pub missed_gate: Vec<(String, Vec<String>)>,
     /// What the build wrote into its output folder, for a report made right after it
     /// (`None` when it wrote no release).
     #[serde(skip)]

@@ -86,6 +86,10 @@ pub struct AssetReport {
     pub auto_resolution: Option<AutoReport>,
     /// This build's jobs of the asset, upstream first: what happened and how long it took.
     pub jobs: Vec<JobReport>,
+    /// What the package misses of the configuration's `[gate]`, one line per bound (absent:
+    /// it passes, or there is no gate).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gate: Vec<String>,
 }
 
 /// Whether an asset built.

@@ -128,7 +128,7 @@ fn asset_link(i: usize) -> String {
 
 /// Version of the pages' layout: bump it when the HTML that [`page`] writes changes, so that
 /// the pages kept from an older report are made again.
-const PAGES_VERSION: u32 = 1;
+const PAGES_VERSION: u32 = 2;
 
 /// How many pages a report of `assets` assets has.
 pub fn page_count(assets: usize) -> usize {
@@ -195,7 +195,6 @@ fn page_links(h: &mut String, report: &ReportSummary, current: usize, count: usi
 pub fn page(report: &ReportSummary, k: usize, count: usize) -> String {
     let mut h = String::new();
     let n = report.assets.len();
-    let failed = report.assets.iter().filter(|a| a.status != "ok").count();
     let _ = write!(
         h,
         "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\
@@ -204,9 +203,12 @@ pub fn page(report: &ReportSummary, k: usize, count: usize) -> String {
     );
     let sections = sections(k, n);
     if k == 1 {
+        let failed = report.assets.iter().filter(|a| a.status != "ok").count();
+        let missed = report.assets.iter().filter(|a| !a.gate.is_empty()).count();
         let _ = writeln!(
             h,
-            "<p class=\"muted\">{n} asset(s), {failed} failed. \
+            "<p class=\"muted\">{n} asset(s), {failed} failed, {missed} missed the quality \
+             gate. \
              Coverage error: pixels the mesh covers and the ORI misses, % of s0 x s0, at the \
              held-out directions (none of which a stage chose anything at; table: at the 320 \
              directions of the selection table). PLT: the largest on-screen size (pixels) the \
@@ -301,7 +303,7 @@ fn summary_table(h: &mut String, report: &ReportSummary) {
 fn summary_row(i: usize, a: &AssetSummary, stages: &[String]) -> serde_json::Value {
     let mut h = String::new();
     let mut keys = vec![serde_json::Value::from(a.name.clone())];
-    let class = if a.status == "ok" {
+    let class = if a.status == "ok" && a.gate.is_empty() {
         ""
     } else {
         " class=\"failed\""
@@ -351,6 +353,8 @@ fn summary_row(i: usize, a: &AssetSummary, stages: &[String]) -> serde_json::Val
     let ran = a.jobs.iter().filter(|j| j.1 == "ran").count();
     let built = if a.status != "ok" {
         "failed".to_string()
+    } else if !a.gate.is_empty() {
+        "missed the gate".to_string()
     } else if ran == 0 {
         "cached".to_string()
     } else {
@@ -373,6 +377,9 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
     let _ = writeln!(h, "<h2 id=\"asset{i}\">{}</h2>", esc(&a.name));
     if let Some(e) = &a.error {
         let _ = writeln!(h, "<p class=\"error\">{}</p>", esc(e));
+    }
+    for missed in &a.gate {
+        let _ = writeln!(h, "<p class=\"error\">quality gate: {}</p>", esc(missed));
     }
     for note in &a.notes {
         let _ = writeln!(h, "<p class=\"note\">{}</p>", esc(note));

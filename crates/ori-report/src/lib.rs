@@ -215,6 +215,8 @@ pub struct AssetSummary {
     /// `[compare] enabled`: the ORI and its rivals at its texture bytes (`cargo xtask
     /// compare`'s rows); empty otherwise.
     pub comparison: Vec<ori_rivals::Row>,
+    /// What the package misses of the build's `[gate]`, one line per bound.
+    pub gate: Vec<String>,
     /// Why the package failed its check against `release.json`, if it did.
     #[serde(skip)]
     pub invalid: Option<String>,
@@ -510,6 +512,7 @@ fn asset_summary(a: &AssetReport, entry: Option<&ReleaseEntry>, place: &Place<'_
             .iter()
             .map(|j| (j.stage.clone(), j.status.as_str().to_string(), j.seconds))
             .collect(),
+        gate: a.gate.clone(),
         ..AssetSummary::default()
     };
     let Some(entry) = entry else {
