@@ -690,6 +690,30 @@ impl Loader<'_, '_> {
                  (its metallic-roughness base colour is used)"
             ));
         }
+        // The relief maps carry the base colour (alpha-tested where MASK): what else makes the
+        // surface look as it does is said, so nobody takes the impostor's look for a bug.
+        if material.alpha_mode() == gltf::material::AlphaMode::Blend {
+            self.warn(format!(
+                "material `{name}` is alpha-blended (alphaMode BLEND); the ORI draws it opaque"
+            ));
+        }
+        if material.emissive_factor() != [0.0; 3] || material.emissive_texture().is_some() {
+            self.warn(format!(
+                "material `{name}`: its emission is ignored (the ORI carries the base colour only)"
+            ));
+        }
+        let extensions = raw
+            .pointer(&format!("/materials/{index}/extensions"))
+            .and_then(Value::as_object);
+        let ignored = extensions
+            .into_iter()
+            .flat_map(|e| e.keys())
+            .filter(|e| *e != "KHR_materials_pbrSpecularGlossiness");
+        for extension in ignored.cloned().collect::<Vec<_>>() {
+            self.warn(format!(
+                "material `{name}`: {extension} is ignored (the ORI carries the base colour only)"
+            ));
+        }
         let pbr = material.pbr_metallic_roughness();
         let (texture, uv_set) = match pbr.base_color_texture() {
             Some(info) => {

@@ -698,6 +698,43 @@ fn material_extensions_load_with_warnings() {
 }
 
 #[test]
+fn what_the_ori_does_not_carry_is_said() {
+    let json = Doc {
+        extra: r#""extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume"],
+                  "materials": [
+                      {"name": "glass", "alphaMode": "BLEND", "extensions": {
+                          "KHR_materials_transmission": {"transmissionFactor": 1},
+                          "KHR_materials_volume": {}}},
+                      {"name": "lamp", "emissiveFactor": [1, 0.5, 0]},
+                      {"name": "plain", "alphaMode": "MASK"}],"#,
+        primitive_extra: r#", "material": 0"#,
+        ..Doc::default()
+    }
+    .json();
+    let warnings = load_gltf(&json).unwrap().warnings.join("\n");
+    for said in [
+        "material `glass` is alpha-blended (alphaMode BLEND); the ORI draws it opaque",
+        "material `glass`: KHR_materials_transmission is ignored",
+        "material `glass`: KHR_materials_volume is ignored",
+    ] {
+        assert!(warnings.contains(said), "{said}: {warnings}");
+    }
+    // Only the materials drawn are looked at.
+    assert!(
+        !warnings.contains("lamp") && !warnings.contains("plain"),
+        "{warnings}"
+    );
+    let json = json.replace(r#""material": 0"#, r#""material": 1"#);
+    let warnings = load_gltf(&json).unwrap().warnings.join("\n");
+    assert!(
+        warnings.contains("material `lamp`: its emission is ignored"),
+        "{warnings}"
+    );
+    let json = json.replace(r#""material": 1"#, r#""material": 2"#);
+    assert!(load_gltf(&json).unwrap().warnings.is_empty());
+}
+
+#[test]
 fn corrupt_json_is_corrupt() {
     for json in [
         "",

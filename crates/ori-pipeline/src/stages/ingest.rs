@@ -87,7 +87,9 @@ pub fn summary(mesh: &Mesh) -> MeshSummary {
 
 impl PipelineStage for Ingest {
     const NAME: &'static str = "ingest";
-    const VERSION: u32 = 1;
+    /// 2: warnings for what the ORI does not carry (alpha blending, emission, material
+    /// extensions), which a cached ingest would not give.
+    const VERSION: u32 = 2;
     type Params = IngestJob;
 
     fn run(&self, params: IngestJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
