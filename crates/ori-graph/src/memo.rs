@@ -1,10 +1,11 @@
 //! Memo maps: what earlier builds learnt (by asset name, by package hash), kept in the cache
-//! folder as [`MEMO_SHARDS`] shard files, `<name>/NN.json`, each holding the entries whose keys
-//! fall in it as checked JSON. A build that learns a few entries rewrites a few small files,
-//! whatever the size of the catalogue; a shard another builder rewrote since this one loaded
-//! it is read again and this build's changes are applied to it, so builders sharing a cache
-//! merge what they learnt. A damaged shard is dropped (and removed) and only costs learning
-//! its entries again.
+//! folder as [`MEMO_SHARDS`] shard files, `<name>/<version>-NN.json`, each holding the entries
+//! whose keys fall in it as checked JSON. A build that learns a few entries rewrites a few
+//! small files, whatever the size of the catalogue; a shard another builder rewrote since this
+//! one loaded it is read again and this build's changes are applied to it, so builders sharing
+//! a cache merge what they learnt. A damaged shard is dropped (and removed) and only costs
+//! learning its entries again. The memo's version is in the file names, so builders of two
+//! versions sharing a cache keep apart and neither takes the other's files for damage.
 
 use std::collections::BTreeMap;
 use std::io;
@@ -45,7 +46,6 @@ impl MemoKey for ContentHash {
 
 #[derive(Serialize, Deserialize)]
 struct Shard<K: Ord, V> {
-    version: u32,
     entries: BTreeMap<K, V>,
 }
 
@@ -56,11 +56,11 @@ type LoadedShard<K, V> = (Option<FileVersion>, Result<Shard<K, V>, ReadError>);
 pub struct MemoMap<K, V> {
     dir: PathBuf,
     /// Bumped by the memo's owner when what an entry means changes: shards of another version
-    /// are taken as empty.
+    /// are not read.
     version: u32,
     loaded: BTreeMap<K, V>,
-    /// Each shard's file version when loaded or last saved: while it is the one on disk,
-    /// nobody else wrote it and saving need not read it again.
+    /// Each shard's file version when loaded (`None` once this builder wrote it): while it is
+    /// the one on disk, nobody else wrote it and saving need not read it again.
     versions: Mutex<Vec<Option<FileVersion>>>,
     /// New entries, and keys to forget (`None`).
     learnt: Mutex<BTreeMap<K, Option<V>>>,
@@ -74,7 +74,7 @@ impl<K: MemoKey, V: Clone + Serialize + DeserializeOwned + Send + Sync> MemoMap<
         let shards: Vec<LoadedShard<K, V>> = (0..MEMO_SHARDS)
             .into_par_iter()
             .map(|s| {
-                let path = shard_path(&dir, s);
+                let path = shard_path(&dir, version, s);
                 (FileVersion::of(&path), read_checked_json(&path))
             })
             .collect();
@@ -84,8 +84,8 @@ impl<K: MemoKey, V: Clone + Serialize + DeserializeOwned + Send + Sync> MemoMap<
         for (file, shard) in shards {
             versions.push(file);
             match shard {
-                Ok(shard) if shard.version == version => loaded.extend(shard.entries),
-                Ok(_) | Err(ReadError::Missing) => {}
+                Ok(shard) => loaded.extend(shard.entries),
+                Err(ReadError::Missing) => {}
                 Err(e) => damaged.push(e.to_string()),
             }
         }
@@ -131,17 +131,17 @@ impl<K: MemoKey, V: Clone + Serialize + DeserializeOwned + Send + Sync> MemoMap<
                 ours.entry(s).or_default().insert(key, value);
             }
         }
-        let written: Vec<(usize, io::Result<Option<FileVersion>>)> = changes
+        let written: Vec<(usize, io::Result<()>)> = changes
             .par_iter()
             .map(|(&s, changed)| {
-                let path = shard_path(&self.dir, s);
+                let path = shard_path(&self.dir, self.version, s);
                 let reread: BTreeMap<K, V>;
                 let mut entries: BTreeMap<&K, &V> = if FileVersion::of(&path) == versions[s] {
                     ours.get(&s).cloned().unwrap_or_default()
                 } else {
                     reread = match read_checked_json::<Shard<K, V>>(&path) {
-                        Ok(shard) if shard.version == self.version => shard.entries,
-                        _ => BTreeMap::new(),
+                        Ok(shard) => shard.entries,
+                        Err(_) => BTreeMap::new(),
                     };
                     reread.iter().collect()
                 };
@@ -151,22 +151,19 @@ impl<K: MemoKey, V: Clone + Serialize + DeserializeOwned + Send + Sync> MemoMap<
                         None => entries.remove(key),
                     };
                 }
-                let shard = Shard {
-                    version: self.version,
-                    entries,
-                };
+                let shard = Shard { entries };
                 // Compact: memos are large and read by programs only.
                 let json = serde_json::to_string(&shard).map_err(io::Error::other);
                 let written = json.and_then(|json| write_entry(&path, &checked(json)));
-                let result = written.map(|()| FileVersion::of(&path));
-                (s, result)
+                (s, written)
             })
             .collect();
         let mut failed = None;
         for (s, result) in written {
-            match result {
-                Ok(version) => versions[s] = version,
-                Err(e) => failed = failed.or(Some(e)),
+            // What was loaded no longer holds what this shard has: a later save reads it.
+            versions[s] = None;
+            if let Err(e) = result {
+                failed = failed.or(Some(e));
             }
         }
         match failed {
@@ -179,8 +176,8 @@ impl<K: MemoKey, V: Clone + Serialize + DeserializeOwned + Send + Sync> MemoMap<
     }
 }
 
-fn shard_path(dir: &std::path::Path, shard: usize) -> PathBuf {
-    dir.join(format!("{shard:02}.json"))
+fn shard_path(dir: &std::path::Path, version: u32, shard: usize) -> PathBuf {
+    dir.join(format!("{version}-{shard:02}.json"))
 }
 
 #[cfg(test)]
@@ -193,7 +190,7 @@ mod tests {
     }
 
     fn files(dir: &std::path::Path) -> Vec<(String, Option<FileVersion>)> {
-        let shards = (0..MEMO_SHARDS).map(|s| shard_path(dir, s));
+        let shards = (0..MEMO_SHARDS).map(|s| shard_path(dir, 1, s));
         shards
             .map(|p| (p.display().to_string(), FileVersion::of(&p)))
             .collect()
@@ -208,6 +205,9 @@ mod tests {
             first.set(format!("asset-{i}"), Some(i));
         }
         first.save().unwrap();
+        // A second save keeps what the first one wrote.
+        first.set("asset-0".into(), Some(1000));
+        first.save().unwrap();
         let before = files(&dir);
         assert!(
             before.iter().all(|(_, v)| v.is_some()),
@@ -217,6 +217,7 @@ mod tests {
         // One entry changed: one shard written.
         let memo: MemoMap<String, u32> = MemoMap::open(dir.clone(), 1);
         assert_eq!(names(&memo).len(), 500);
+        assert_eq!(memo.get(&"asset-0".to_string()), Some(&1000));
         memo.set("asset-7".into(), Some(70));
         memo.save().unwrap();
         let after = files(&dir);
@@ -244,7 +245,7 @@ mod tests {
         );
 
         // A damaged shard is dropped and named; another version's shards are empty.
-        let damaged = shard_path(&dir, "asset-1".to_string().shard());
+        let damaged = shard_path(&dir, 1, "asset-1".to_string().shard());
         let mut bytes = std::fs::read(&damaged).unwrap();
         let middle = bytes.len() / 2;
         bytes[middle] ^= 1;

@@ -40,8 +40,11 @@ impl GateParams {
     /// per bound; empty: it passes.
     pub fn missed(&self, quality: &QualityReport, texture_bytes: u64) -> Vec<String> {
         let mut missed = Vec::new();
+        // A PLT that is only a lower bound (no held-out view missed a pixel) is not known to
+        // be below anything.
         if let Some(min) = self.min_plt_px
-            && quality.plt < min
+            && !quality.plt_is_lower_bound
+            && (quality.plt.is_nan() || quality.plt < min)
         {
             missed.push(format!(
                 "PLT {:.1} px is below gate.min_plt_px = {min}",

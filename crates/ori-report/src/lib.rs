@@ -19,7 +19,7 @@ mod html;
 mod pictures;
 mod relief;
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -359,7 +359,7 @@ const PAGES_MEMO: &str = "pages.json";
 
 #[derive(Default, Serialize, Deserialize)]
 struct PagesMemo {
-    pages: HashMap<String, KeptPage>,
+    pages: BTreeMap<String, KeptPage>,
 }
 
 #[derive(Clone, Copy, Serialize, Deserialize)]
@@ -392,7 +392,10 @@ fn write_pages(dir: &Path, summary: &ReportSummary, rows: &[Vec<u8>]) -> Result<
             {
                 return Ok((file, kept));
             }
-            write_file(&path, html::page(summary, k, count).as_bytes())?;
+            // A new file each time: a reader never sees half a page, and its version changes
+            // whatever the file system's clock.
+            ori_graph::write_atomic(&path, html::page(summary, k, count).as_bytes())
+                .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
             let version = ori_graph::FileVersion::of(&path)
                 .ok_or_else(|| format!("{}: gone after writing it", path.display()))?;
             Ok((
