@@ -4,7 +4,9 @@
 
 mod common;
 
+use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
+use std::path::Path;
 use std::process::Command;
 
 use common::*;
@@ -479,5 +481,156 @@ fn an_asset_that_misses_the_quality_gate_is_reported_and_the_build_exits_3() {
     assert!(
         t.contains("pipeline.toml") && t.contains("gate.min_plt_px"),
         "{t}"
+    );
+}
+
+/// docs/EVENTS.md's tables: each event's fields, with their type and whether they may be
+/// absent.
+fn events_schema() -> BTreeMap<String, Vec<(String, String, bool)>> {
+    let doc = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/EVENTS.md");
+    let text = fs::read_to_string(doc).unwrap();
+    let mut schema: BTreeMap<String, Vec<(String, String, bool)>> = BTreeMap::new();
+    let mut current = None;
+    for line in text.lines() {
+        if let Some(name) = line.strip_prefix("### `") {
+            let name = name.trim_end_matches('`').to_string();
+            schema.insert(name.clone(), Vec::new());
+            current = Some(name);
+        } else if let (Some(event), true) = (&current, line.starts_with("| `")) {
+            let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+            let field = cells[1].trim_matches('`').to_string();
+            let optional = cells[2].ends_with(", optional");
+            let ty = cells[2].trim_end_matches(", optional").to_string();
+            schema.get_mut(event).unwrap().push((field, ty, optional));
+        }
+    }
+    assert!(schema.len() >= 6, "{schema:?}");
+    schema
+}
+
+/// Every line of `stdout` parsed and held to the schema.
+fn events_of(out: &std::process::Output) -> Vec<serde_json::Value> {
+    let schema = events_schema();
+    let stdout = String::from_utf8(out.stdout.clone()).unwrap();
+    let events: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|line| serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}: {line}")))
+        .collect();
+    for event in &events {
+        let object = event.as_object().unwrap();
+        let name = object["event"].as_str().unwrap();
+        let fields = schema
+            .get(name)
+            .unwrap_or_else(|| panic!("undocumented event {event}"));
+        for (key, value) in object.iter().filter(|(k, _)| *k != "event") {
+            let (_, ty, _) = fields
+                .iter()
+                .find(|(f, _, _)| f == key)
+                .unwrap_or_else(|| panic!("undocumented field {key} in {event}"));
+            let fits = match ty.as_str() {
+                "string" => value.is_string(),
+                "number" => value.is_number(),
+                "integer" => value.is_u64() || value.is_i64(),
+                "boolean" => value.is_boolean(),
+                "array of string" => value
+                    .as_array()
+                    .is_some_and(|a| a.iter().all(serde_json::Value::is_string)),
+                other => panic!("unknown type {other} in docs/EVENTS.md"),
+            };
+            assert!(fits, "{key} is not a {ty} in {event}");
+        }
+        for (field, _, optional) in fields {
+            assert!(
+                *optional || object.contains_key(field),
+                "{field} missing: {event}"
+            );
+        }
+    }
+    events
+}
+
+#[test]
+fn json_events_follow_docs_events_md() {
+    let p = Project::new(&["box-vertex-colors"]);
+    fs::create_dir_all(p.path("assets/odd")).unwrap();
+    fs::write(
+        p.path("assets/odd/tetra.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nzz 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+    )
+    .unwrap();
+    let glb = fs::read(shared_models().join("gltf/Duck/Duck.glb")).unwrap();
+    fs::create_dir_all(p.path("assets/broken")).unwrap();
+    fs::write(p.path("assets/broken/duck.glb"), &glb[..glb.len() / 3]).unwrap();
+    p.config("[gate]\nmax_texture_bytes = 1\n");
+    let out = p.build(&["--message-format", "json"]);
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let events = events_of(&out);
+    let named = |name: &str| -> Vec<&serde_json::Value> {
+        events.iter().filter(|e| e["event"] == name).collect()
+    };
+    assert_eq!(events[0]["event"], "plan");
+    let last = events.last().unwrap();
+    assert_eq!(last["event"], "build-finished");
+    assert_eq!(last["exit_status"], 1);
+    assert_eq!(last["assets"], 3);
+    assert_eq!(last["failed_assets"], 1);
+    assert_eq!(named("build-finished").len(), 1);
+    let outcomes: BTreeSet<&str> = named("job-finished")
+        .iter()
+        .map(|e| e["outcome"].as_str().unwrap())
+        .collect();
+    assert!(
+        ["ran", "failed", "skipped"]
+            .iter()
+            .all(|o| outcomes.contains(o)),
+        "{outcomes:?}"
+    );
+    // Every job that runs starts and finishes; one skipped after an upstream failure only
+    // finishes.
+    let skipped = named("job-finished")
+        .iter()
+        .filter(|e| e["outcome"] == "skipped")
+        .count();
+    assert_eq!(
+        named("job-started").len(),
+        named("job-finished").len() - skipped
+    );
+    assert!(
+        named("warning").iter().any(|w| w["asset"] == "odd/tetra.obj"
+            && w["message"].as_str().unwrap().contains("zz")),
+        "{events:?}"
+    );
+    let finished = named("asset-finished");
+    assert_eq!(finished.len(), 3);
+    let boxes = finished
+        .iter()
+        .find(|e| e["asset"] == "box-vertex-colors/BoxVertexColors.glb")
+        .unwrap();
+    assert!(boxes["plt"].as_f64().unwrap() > 0.0 && boxes["texture_bytes"].as_u64().unwrap() > 1);
+    assert_eq!(boxes["gate"].as_array().unwrap().len(), 1, "{boxes}");
+    // The person's lines went to standard error.
+    assert!(String::from_utf8_lossy(&out.stderr).contains("stage "));
+
+    // Unchanged assets: every job reused, none started.
+    let out = p.build(&["--message-format", "json"]);
+    let events = events_of(&out);
+    let finished: Vec<&serde_json::Value> = events
+        .iter()
+        .filter(|e| e["event"] == "job-finished" && e["asset"] != "broken/duck.glb")
+        .collect();
+    assert!(finished.len() >= 16 && finished.iter().all(|e| e["outcome"] == "reused"));
+
+    // A wrong configuration: no build, and the stream still ends with its status.
+    p.config("[gate]\nmin_plt_px = -1\n");
+    let out = p.build(&["--message-format", "json"]);
+    assert_eq!(out.status.code(), Some(2));
+    let events = events_of(&out);
+    assert_eq!(events.len(), 1);
+    assert_eq!(events[0]["exit_status"], 2);
+    assert!(
+        events[0]["error"]
+            .as_str()
+            .unwrap()
+            .contains("gate.min_plt_px")
     );
 }

@@ -9,6 +9,7 @@ mod compare;
 mod compress;
 mod conformance;
 mod eval_table;
+mod events;
 mod nginx;
 mod preview;
 mod progress;
@@ -17,6 +18,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use ori_graph::Observer;
 use ori_pipeline::{BuildOptions, Mode, build_assets, format_summary};
 use progress::{Progress, ProgressMode};
 
@@ -116,6 +118,17 @@ struct BuildArgs {
     /// used only when asked for.
     #[arg(long, value_enum, default_value = "cpu")]
     backend: Backend,
+    /// `json`: the build as JSON Lines on standard output, one event per line (schema:
+    /// docs/EVENTS.md); what a person reads goes to standard error.
+    #[arg(long, value_enum, default_value = "human")]
+    message_format: MessageFormat,
+}
+
+/// `--message-format`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum MessageFormat {
+    Human,
+    Json,
 }
 
 /// `--backend`.
@@ -154,6 +167,9 @@ struct AssembleArgs {
     /// The backend the shards measured selection with.
     #[arg(long, value_enum, default_value = "cpu")]
     backend: Backend,
+    /// `json`: JSON Lines events on standard output (docs/EVENTS.md).
+    #[arg(long, value_enum, default_value = "human")]
+    message_format: MessageFormat,
 }
 
 fn main() -> ExitCode {
@@ -175,6 +191,7 @@ fn main() -> ExitCode {
                 no_report: a.no_report,
                 shard: None,
                 backend: a.backend,
+                message_format: a.message_format,
             },
             true,
         ),
@@ -313,9 +330,30 @@ fn worker_threads(asked: usize) -> usize {
 
 /// `build-assets`, or `assemble` (no stage runs). Exit status 0: built; 1: some job failed,
 /// an output could not be written or (assemble) some asset is not cached; 2: the
-/// configuration or command line is wrong.
+/// configuration or command line is wrong; 3: every job ran but some package misses its
+/// `[gate]`.
 fn build(args: BuildArgs, assemble: bool) -> ExitCode {
-    let progress = if args.quiet {
+    let events = (args.message_format == MessageFormat::Json).then(events::JsonEvents::new);
+    let (status, summary, error) = run_build(args, assemble, events.as_ref());
+    if let Some(events) = &events {
+        events.build_finished(summary.as_ref(), status, error.as_deref());
+    }
+    ExitCode::from(status)
+}
+
+/// [`build`]'s work: its exit status, the build's summary when it ran, and the error that
+/// stopped it, if one did (printed already).
+fn run_build(
+    args: BuildArgs,
+    assemble: bool,
+    events: Option<&events::JsonEvents>,
+) -> (u8, Option<ori_pipeline::BuildSummary>, Option<String>) {
+    // With JSON events, standard output carries only them.
+    let say = |line: &str| match events {
+        Some(_) => eprintln!("{line}"),
+        None => println!("{line}"),
+    };
+    let progress = if args.quiet || events.is_some() {
         ProgressMode::Quiet
     } else {
         ProgressMode::detect()
@@ -331,12 +369,16 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
         Backend::Cpu => None,
         Backend::Gpu => match ori_pipeline::gpu_select::renderer() {
             Ok(r) => {
-                println!("selection backend: gpu on {}", r.adapter_summary());
+                say(&format!(
+                    "selection backend: gpu on {}",
+                    r.adapter_summary()
+                ));
                 Some(r.adapter_summary())
             }
             Err(e) => {
-                eprintln!("error: --backend gpu: {e}");
-                return ExitCode::from(2);
+                let e = format!("--backend gpu: {e}");
+                eprintln!("error: {e}");
+                return (2, None, Some(e));
             }
         },
     };
@@ -356,57 +398,70 @@ fn build(args: BuildArgs, assemble: bool) -> ExitCode {
         dump_maps: args.dump_maps,
         explode: args.explode,
     };
-    let observer = Progress::new(progress, args.explain || args.dry_run);
-    match build_assets(&options, &observer) {
+    let progress = Progress::new(progress, args.explain || args.dry_run);
+    let observer: &dyn ori_graph::Observer = match events {
+        Some(events) => events,
+        None => &progress,
+    };
+    match build_assets(&options, observer) {
         Ok(mut summary) => {
             for w in &summary.warnings {
                 eprintln!("warning: {w}");
-            }
-            println!("{}", format_summary(&summary));
-            if want_report {
-                let started = std::time::Instant::now();
-                let built = summary.written.take();
-                match write_report(&config_path, out_arg, assets_arg, cache_arg, built) {
-                    Ok(index) => println!(
-                        "html report: {} ({:.2} s)",
-                        index.display(),
-                        started.elapsed().as_secs_f64()
-                    ),
-                    Err(e) => {
-                        eprintln!("error: cannot write the html report: {e}");
-                        return ExitCode::from(1);
-                    }
+                if let Some(events) = events {
+                    events.note(w);
                 }
+            }
+            say(&format_summary(&summary));
+            if let (Some(events), Some(written)) = (events, &summary.written) {
+                events.assets_finished(written);
             }
             for (asset, missed) in &summary.missed_gate {
                 for what in missed {
                     eprintln!("error: quality gate: {asset}: {what}");
                 }
             }
-            if summary.failed_jobs > 0 {
-                eprintln!("error: {} job(s) failed (see above)", summary.failed_jobs);
-                ExitCode::from(1)
-            } else if !summary.missed_gate.is_empty() {
-                eprintln!(
-                    "error: {} asset(s) missed the quality gate ([gate] in {})",
-                    summary.missed_gate.len(),
-                    config_path.display()
-                );
-                ExitCode::from(3)
-            } else {
-                ExitCode::SUCCESS
+            if want_report {
+                let started = std::time::Instant::now();
+                let built = summary.written.take();
+                match write_report(&config_path, out_arg, assets_arg, cache_arg, built) {
+                    Ok(index) => say(&format!(
+                        "html report: {} ({:.2} s)",
+                        index.display(),
+                        started.elapsed().as_secs_f64()
+                    )),
+                    Err(e) => {
+                        let e = format!("cannot write the html report: {e}");
+                        eprintln!("error: {e}");
+                        return (1, Some(summary), Some(e));
+                    }
+                }
             }
-        }
-        Err(
-            e @ (ori_pipeline::PipelineError::NotCached(_)
-            | ori_pipeline::PipelineError::Output { .. }),
-        ) => {
-            eprintln!("error: {e}");
-            ExitCode::from(1)
+            let (status, error) = if summary.failed_jobs > 0 {
+                (
+                    1,
+                    format!("{} job(s) failed (see above)", summary.failed_jobs),
+                )
+            } else if !summary.missed_gate.is_empty() {
+                let config = config_path.display();
+                let n = summary.missed_gate.len();
+                (
+                    3,
+                    format!("{n} asset(s) missed the quality gate ([gate] in {config})"),
+                )
+            } else {
+                return (0, Some(summary), None);
+            };
+            eprintln!("error: {error}");
+            (status, Some(summary), Some(error))
         }
         Err(e) => {
+            let status = match e {
+                ori_pipeline::PipelineError::NotCached(_)
+                | ori_pipeline::PipelineError::Output { .. } => 1,
+                _ => 2,
+            };
             eprintln!("error: {e}");
-            ExitCode::from(2)
+            (status, None, Some(e.to_string()))
         }
     }
 }
