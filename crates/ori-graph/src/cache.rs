@@ -6,7 +6,7 @@
 //! ac/12/1234....json  action entry of the job whose key is 1234...
 //! jobs/5678....json   last run of one (asset, stage), used only to explain re-runs
 //! stat-memo.json      (size, mtime, inode) -> content hash of source files
-//! <memo>/NN.json      shards of the memo maps its users keep (`MemoMap`)
+//! <memo>/V-NN.json    shards of the memo maps its users keep (`MemoMap`, version V)
 //! ```
 //! Every write goes to a unique temporary file that is renamed into place, so readers (and
 //! other builders sharing the directory) see either nothing or a complete file. Every read is

@@ -387,19 +387,19 @@ impl SourceHasher {
             .as_nanos() as i128;
         let mut version = self.version.lock().unwrap();
         let ours = self.memo.lock().unwrap();
-        let mut merged = match FileVersion::of(&self.memo_path) {
+        let theirs = match FileVersion::of(&self.memo_path) {
             current if current == *version => HashMap::new(),
             _ => load_memo(&self.memo_path).0,
         };
-        merged.extend(ours.iter().map(|(k, v)| (k.clone(), v.clone())));
-        merged.retain(|_, e| {
-            now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128
-        });
-        // Sorted, so that the same memo is the same file.
-        let sorted: BTreeMap<&str, &MemoEntry> = merged
+        // Ours over theirs, sorted so that the same memo is the same file.
+        let mut sorted: BTreeMap<&str, &MemoEntry> = theirs
             .iter()
+            .chain(ours.iter())
             .filter_map(|(path, e)| Some((path.to_str()?, e)))
             .collect();
+        sorted.retain(|_, e| {
+            now - e.stamp.mtime_ns.max(e.stamp.ctime_ns) > RACY_WINDOW.as_nanos() as i128
+        });
         let json = serde_json::to_vec(&sorted).map_err(io::Error::other)?;
         match write_atomic(&self.memo_path, &json) {
             Ok(()) => {

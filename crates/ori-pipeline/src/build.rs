@@ -135,6 +135,10 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
 
 /// Note in each built asset's report entry what its package misses of its gate.
 fn check_gates(report: &mut BuildReport, release: &Release, gates: &HashMap<&str, GateParams>) {
+    // Most builds set no gate: no per-asset work then.
+    if gates.is_empty() {
+        return;
+    }
     let texture_bytes: HashMap<&str, u64> = release
         .assets
         .iter()
