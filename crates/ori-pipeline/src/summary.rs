@@ -171,7 +171,7 @@ pub fn format_summary(s: &BuildSummary) -> String {
     }
     if let Some((shard, total)) = s.shard {
         out.push_str(&format!(
-            "\nshard {shard}: {} of {total} assets; no release written (`cargo xtask assemble` writes it once every shard is built)",
+            "\nshard {shard}: {} of {total} assets; no release written (`assemble` writes it once every shard is built)",
             s.assets
         ));
     }

@@ -1,4 +1,4 @@
-//! `cargo xtask preview PACKAGE`: the ORI drawn by the wgpu runtime renderer, the reference
+//! `ori preview PACKAGE` (also `cargo xtask preview`): the ORI drawn by the wgpu runtime renderer, the reference
 //! mesh with the same camera, and their difference, side by side (one row per direction, or
 //! per step of a camera path). A hierarchy package is drawn by the runtime traversal.
 

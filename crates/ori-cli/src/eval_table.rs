@@ -1,4 +1,4 @@
-//! `cargo xtask eval-table MODEL`: the ORI paper's Table 1 for any model (coverage error
+//! `ori eval-table MODEL` (also `cargo xtask eval-table`): the ORI paper's Table 1 for any model (coverage error
 //! min / max / avg, PLT, impostors per view for the 1 to 4 closest impostors and `best:M`),
 //! plus the rows the paper left out: inverse coverage, p_dif and depth error.
 

@@ -1,4 +1,4 @@
-//! `cargo xtask compare MODEL`: every impostor technique of `ori-rivals` and the ORI baked at
+//! `ori compare MODEL` (also `cargo xtask compare`): every impostor technique of `ori-rivals` and the ORI baked at
 //! one byte budget and measured at the held-out directions with the evaluator's views,
 //! reference and errors.
 

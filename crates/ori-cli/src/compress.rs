@@ -1,8 +1,7 @@
-//! `cargo xtask compress-texture`: one PNG to one KTX2 file (BC1 sRGB albedo, BC4 or BC5),
+//! `ori compress-texture` (also `cargo xtask compress-texture`): one PNG to one KTX2 file (BC1 sRGB albedo, BC4 or BC5),
 //! with an optional report of speed and quality.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -90,7 +89,7 @@ pub fn run(args: Args) -> ExitCode {
         }
     };
     let bytes = file.to_bytes();
-    if let Err(e) = write_atomically(&args.output, &bytes) {
+    if let Err(e) = ori_graph::write_atomic(&args.output, &bytes) {
         eprintln!("error: {}: {e}", args.output.display());
         return ExitCode::from(1);
     }
@@ -98,31 +97,6 @@ pub fn run(args: Args) -> ExitCode {
         print_report(&args, &image, mask.as_deref(), &file, bytes.len(), seconds);
     }
     ExitCode::SUCCESS
-}
-
-/// Writes a temporary file beside `path` and renames it over `path`, so readers see the old
-/// file or the new one, never a part. The temporary file is removed on failure.
-fn write_atomically(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path
-        .file_name()
-        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name"))?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let result = (|| {
-        let mut file = std::fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
 }
 
 fn print_report(

@@ -71,6 +71,14 @@ impl Progress {
             ProgressMode::Lines | ProgressMode::Quiet => println!("{line}"),
         }
     }
+
+    /// Errors and warnings go to standard error, where scripts and people look for them.
+    fn print_problem(&self, line: &str) {
+        match self.mode {
+            ProgressMode::Bars => self.multi.suspend(|| eprintln!("{line}")),
+            ProgressMode::Lines | ProgressMode::Quiet => eprintln!("{line}"),
+        }
+    }
 }
 
 impl Bars {
@@ -155,7 +163,10 @@ impl Observer for Progress {
                 result.duration.as_secs_f64()
             )),
             Outcome::WouldRun(reason) => Some(format!("{what}: would run because {reason}")),
-            Outcome::Failed(message) => Some(format!("error: {what}: {message}")),
+            Outcome::Failed(message) => {
+                self.print_problem(&format!("error: {what}: {message}"));
+                None
+            }
             Outcome::Skipped if lines => Some(format!("{what}: skipped (an upstream job failed)")),
             Outcome::NotCached if lines => Some(format!("{what}: not in the cache")),
             _ => None,
@@ -164,12 +175,16 @@ impl Observer for Progress {
             self.print(&line);
         }
         for warning in &result.warnings {
-            self.print(&format!("warning: {}: {warning}", job.asset));
+            self.print_problem(&format!("warning: {}: {warning}", job.asset));
         }
     }
 
     fn note(&self, message: &str) {
-        self.print(message);
+        if message.starts_with("warning:") || message.starts_with("error:") {
+            self.print_problem(message);
+        } else {
+            self.print(message);
+        }
     }
 
     fn asset_unchanged(&self, asset: &str, stages: &[String]) {
