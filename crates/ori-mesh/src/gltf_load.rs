@@ -28,12 +28,25 @@ use crate::{AlphaMode, ErrorKind, Limits, Material, MeshError, Resolver, Texture
 
 /// Extensions that change what the geometry is: loading without them would be silently wrong,
 /// so a file that uses one is refused even when it only lists it as used.
-const GEOMETRY_EXTENSIONS: [&str; 4] = [
+const GEOMETRY_EXTENSIONS: [&str; 3] = [
     "KHR_draco_mesh_compression",
-    "EXT_meshopt_compression",
-    "KHR_mesh_quantization",
+    "KHR_meshopt_compression",
     "EXT_mesh_gpu_instancing",
 ];
+
+/// Extensions this loader implements, all three written by gltfpack: integer vertex
+/// attributes, meshoptimizer-compressed buffer views, and the texture-coordinate transform
+/// that undoes quantized texture coordinates (honoured on the base-colour texture).
+const IMPLEMENTED_EXTENSIONS: [&str; 3] = [
+    "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_texture_transform",
+];
+
+/// Most bytes that `EXT_meshopt_compression` may make one model decode into (its fallback
+/// buffers): a compressed view costs memory in proportion to what it declares, not to its
+/// file bytes. The default limits' vertices and triangles need well under this.
+const MAX_DECODED_BYTES: usize = 1 << 30;
 
 /// Most elements accepted in a sparse accessor without a buffer view. Such an accessor costs
 /// memory per element but no file bytes, so its declared count alone would size allocations.
@@ -42,11 +55,26 @@ const MAX_UNBACKED_ELEMENTS: usize = 1 << 24;
 /// glTF's default alpha cutoff for `MASK` materials.
 const DEFAULT_ALPHA_CUTOFF: f32 = 0.5;
 
-/// Element layouts the gltf reader decodes for each attribute (anything else makes it panic).
-const VEC3_F32: &[(DataType, Dimensions)] = &[(DataType::F32, Dimensions::Vec3)];
+/// Element layouts accepted for each attribute: floats, which the gltf reader decodes, and the
+/// integers KHR_mesh_quantization allows, which [`Loader::read_integers`] does (the reader
+/// panics on layouts it does not expect).
+const POSITION_LAYOUTS: &[(DataType, Dimensions)] = &[
+    (DataType::F32, Dimensions::Vec3),
+    (DataType::I8, Dimensions::Vec3),
+    (DataType::U8, Dimensions::Vec3),
+    (DataType::I16, Dimensions::Vec3),
+    (DataType::U16, Dimensions::Vec3),
+];
+const NORMAL_LAYOUTS: &[(DataType, Dimensions)] = &[
+    (DataType::F32, Dimensions::Vec3),
+    (DataType::I8, Dimensions::Vec3),
+    (DataType::I16, Dimensions::Vec3),
+];
 const TEX_COORD_LAYOUTS: &[(DataType, Dimensions)] = &[
     (DataType::F32, Dimensions::Vec2),
+    (DataType::I8, Dimensions::Vec2),
     (DataType::U8, Dimensions::Vec2),
+    (DataType::I16, Dimensions::Vec2),
     (DataType::U16, Dimensions::Vec2),
 ];
 const COLOR_LAYOUTS: &[(DataType, Dimensions)] = &[
@@ -96,7 +124,8 @@ fn load_document(
         .map_err(|e| corrupt(format!("invalid glTF JSON: {e}")))?;
     check_geometry_extensions(&raw)?;
     let document = parse_document(json, warnings)?;
-    let buffers = load_buffers(&document, blob, resolver)?;
+    let mut buffers = load_buffers(&document, &raw, blob, resolver)?;
+    decode_meshopt_views(&document, &raw, &mut buffers)?;
     let draws = scene_draws(&document, warnings)?;
 
     let mut loader = Loader {
@@ -231,6 +260,9 @@ fn parse_document(json: &[u8], warnings: &mut Vec<String>) -> Result<Document, E
     let mut root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
         .map_err(|e| corrupt(format!("invalid glTF: {e}")))?;
     for name in root.extensions_required.drain(..) {
+        if IMPLEMENTED_EXTENSIONS.contains(&name.as_str()) {
+            continue;
+        }
         warnings.push(format!(
             "required extension `{name}` is not supported; loading without it"
         ));
@@ -268,16 +300,36 @@ fn parse_document(json: &[u8], warnings: &mut Vec<String>) -> Result<Document, E
     })
 }
 
-/// The bytes of every buffer, each at least as long as it declares.
+/// The bytes of every buffer, each at least as long as it declares. An `EXT_meshopt_compression`
+/// fallback buffer without a uri starts as zeros: its compressed views are decoded into it.
 fn load_buffers<'a>(
     document: &Document,
+    raw: &Value,
     blob: Option<&'a [u8]>,
     resolver: &mut Resolver<'_>,
 ) -> Result<Vec<Cow<'a, [u8]>>, ErrorKind> {
+    let mut fallback_bytes = 0usize;
     document
         .buffers()
         .map(|buffer| {
+            let index = buffer.index();
+            let fallback = raw
+                .pointer(&format!(
+                    "/buffers/{index}/extensions/EXT_meshopt_compression/fallback"
+                ))
+                .and_then(Value::as_bool)
+                == Some(true);
             let data = match buffer.source() {
+                Source::Bin if fallback => {
+                    fallback_bytes = fallback_bytes.saturating_add(buffer.length());
+                    if fallback_bytes > MAX_DECODED_BYTES {
+                        return Err(corrupt(format!(
+                            "EXT_meshopt_compression: the fallback buffers declare more than \
+                             {MAX_DECODED_BYTES} bytes to decode"
+                        )));
+                    }
+                    Cow::Owned(vec![0; buffer.length()])
+                }
                 Source::Bin => Cow::Borrowed(blob.ok_or_else(|| {
                     corrupt(format!(
                         "buffer {} has no uri and there is no GLB binary chunk",
@@ -297,6 +349,129 @@ fn load_buffers<'a>(
             Ok(data)
         })
         .collect()
+}
+
+/// Decodes every `EXT_meshopt_compression` buffer view into the bytes of its own buffer, so that
+/// what follows reads it like any other view. meshoptimizer's decoders are made for untrusted
+/// input (they check every read against the compressed bytes and report errors); what they
+/// assert instead (element sizes, index counts) is checked here first.
+fn decode_meshopt_views(
+    document: &Document,
+    raw: &Value,
+    buffers: &mut [Cow<'_, [u8]>],
+) -> Result<(), ErrorKind> {
+    for view in document.views() {
+        let pointer = format!(
+            "/bufferViews/{}/extensions/EXT_meshopt_compression",
+            view.index()
+        );
+        let Some(extension) = raw.pointer(&pointer) else {
+            continue;
+        };
+        let context = format!("buffer view {}: EXT_meshopt_compression", view.index());
+        let bad = |what: &str| corrupt(format!("{context}: {what}"));
+        let number = |key: &str, default: Option<u64>| {
+            match extension.get(key) {
+                None => default,
+                Some(value) => value.as_u64(),
+            }
+            .and_then(|n| usize::try_from(n).ok())
+            .ok_or_else(|| bad(&format!("`{key}` is missing or not a count")))
+        };
+        let text = |key: &str, default: Option<&'static str>| {
+            match extension.get(key) {
+                None => default.map(str::to_string),
+                Some(value) => value.as_str().map(str::to_string),
+            }
+            .ok_or_else(|| bad(&format!("`{key}` is missing or not a string")))
+        };
+        let (source_buffer, offset, length) = (
+            number("buffer", None)?,
+            number("byteOffset", Some(0))?,
+            number("byteLength", None)?,
+        );
+        let (stride, count) = (number("byteStride", None)?, number("count", None)?);
+        let (mode, filter) = (text("mode", None)?, text("filter", Some("NONE"))?);
+        if count.checked_mul(stride) != Some(view.length()) {
+            return Err(bad(&format!(
+                "{count} elements of {stride} bytes are not the view's {} bytes",
+                view.length()
+            )));
+        }
+        let source = offset
+            .checked_add(length)
+            .and_then(|end| buffers.get(source_buffer)?.get(offset..end))
+            .ok_or_else(|| bad("the compressed bytes lie outside their buffer"))?
+            .to_vec();
+        let mut decoded = vec![0u8; view.length()];
+        let (out, source_len) = (decoded.as_mut_ptr().cast(), source.len());
+        // SAFETY: `out` holds `count * stride` bytes and `source` is `source_len` bytes long;
+        // the decoders read and write nothing else, and every size they assert is checked.
+        let status = match (mode.as_str(), filter.as_str()) {
+            ("ATTRIBUTES", _) if stride % 4 == 0 && (4..=256).contains(&stride) => unsafe {
+                meshopt::ffi::meshopt_decodeVertexBuffer(
+                    out,
+                    count,
+                    stride,
+                    source.as_ptr(),
+                    source_len,
+                )
+            },
+            ("TRIANGLES", "NONE") if matches!(stride, 2 | 4) && count % 3 == 0 => unsafe {
+                meshopt::ffi::meshopt_decodeIndexBuffer(
+                    out,
+                    count,
+                    stride,
+                    source.as_ptr(),
+                    source_len,
+                )
+            },
+            ("INDICES", "NONE") if matches!(stride, 2 | 4) => unsafe {
+                meshopt::ffi::meshopt_decodeIndexSequence(
+                    out,
+                    count,
+                    stride,
+                    source.as_ptr(),
+                    source_len,
+                )
+            },
+            _ => {
+                return Err(bad(&format!(
+                    "mode {mode} with filter {filter} and a {stride}-byte stride is not valid"
+                )));
+            }
+        };
+        if status != 0 {
+            return Err(bad(&format!(
+                "the compressed data is corrupt (meshoptimizer error {status})"
+            )));
+        }
+        // SAFETY: as above; each filter's stride requirement is checked first.
+        match filter.as_str() {
+            "NONE" => {}
+            "OCTAHEDRAL" if matches!(stride, 4 | 8) => unsafe {
+                meshopt::ffi::meshopt_decodeFilterOct(out, count, stride)
+            },
+            "QUATERNION" if stride == 8 => unsafe {
+                meshopt::ffi::meshopt_decodeFilterQuat(out, count, stride)
+            },
+            "EXPONENTIAL" => unsafe { meshopt::ffi::meshopt_decodeFilterExp(out, count, stride) },
+            _ => {
+                return Err(bad(&format!(
+                    "filter {filter} does not apply to a {stride}-byte stride"
+                )));
+            }
+        }
+        let target = view.buffer().index();
+        let range = view
+            .offset()
+            .checked_add(view.length())
+            .map(|end| view.offset()..end)
+            .filter(|range| buffers.get(target).is_some_and(|b| range.end <= b.len()))
+            .ok_or_else(|| bad(&format!("the view extends past the end of buffer {target}")))?;
+        buffers[target].to_mut()[range].copy_from_slice(&decoded);
+    }
+    Ok(())
 }
 
 /// Reads what a URI refers to: a `data:` URI is decoded in place, anything else is
@@ -401,6 +576,70 @@ fn scene_draws<'d>(
     Ok(draws)
 }
 
+/// A converted material as a primitive uses it: the canonical material, the texture coordinate
+/// set its base-colour texture samples and the transform applied to those coordinates.
+#[derive(Clone, Copy)]
+struct MaterialUse {
+    slot: u32,
+    uv_set: u32,
+    uv_transform: Option<UvTransform>,
+}
+
+/// `KHR_texture_transform` on a texture reference: `uv' = offset + rotation(scale * uv)`.
+#[derive(Clone, Copy)]
+struct UvTransform {
+    offset: [f32; 2],
+    rotation: f32,
+    scale: [f32; 2],
+}
+
+impl UvTransform {
+    /// The transform and the texture coordinate set it overrides (`texCoord`), if it does.
+    fn parse(json: &Value) -> Result<(UvTransform, Option<u32>), String> {
+        let pair = |key: &str, default: [f32; 2]| match json.get(key) {
+            None => Ok(default),
+            Some(value) => value
+                .as_array()
+                .filter(|a| a.len() == 2)
+                .and_then(|a| Some([a[0].as_f64()? as f32, a[1].as_f64()? as f32]))
+                .filter(|p| p.iter().all(|v| v.is_finite()))
+                .ok_or_else(|| format!("`{key}` is not two finite numbers")),
+        };
+        let rotation = match json.get("rotation") {
+            None => 0.0,
+            Some(value) => value
+                .as_f64()
+                .map(|r| r as f32)
+                .filter(|r| r.is_finite())
+                .ok_or("`rotation` is not a finite number")?,
+        };
+        let tex_coord = match json.get("texCoord") {
+            None => None,
+            Some(value) => Some(
+                value
+                    .as_u64()
+                    .and_then(|n| u32::try_from(n).ok())
+                    .ok_or("`texCoord` is not a texture coordinate set")?,
+            ),
+        };
+        let transform = UvTransform {
+            offset: pair("offset", [0.0, 0.0])?,
+            rotation,
+            scale: pair("scale", [1.0, 1.0])?,
+        };
+        Ok((transform, tex_coord))
+    }
+
+    fn apply(&self, [u, v]: [f32; 2]) -> [f32; 2] {
+        let (u, v) = (u * self.scale[0], v * self.scale[1]);
+        let (sin, cos) = self.rotation.sin_cos();
+        [
+            self.offset[0] + cos * u - sin * v,
+            self.offset[1] + sin * u + cos * v,
+        ]
+    }
+}
+
 /// Converts the drawn primitives into the builder, converting materials and decoding
 /// textures on first use.
 struct Loader<'a, 'r> {
@@ -410,8 +649,8 @@ struct Loader<'a, 'r> {
     resolver: &'a mut Resolver<'r>,
     warnings: &'a mut Vec<String>,
     builder: MeshBuilder,
-    /// Canonical material index and the texture coordinate set it samples, per glTF material.
-    materials: Vec<Option<(u32, u32)>>,
+    /// How each glTF material is drawn, once converted.
+    materials: Vec<Option<MaterialUse>>,
     default_material: Option<u32>,
     /// Canonical texture per (image, sampler) pair.
     textures: HashMap<(usize, Option<usize>), u32>,
@@ -469,26 +708,38 @@ impl Loader<'_, '_> {
         normal_matrix: Mat3,
         flip: bool,
     ) -> Result<(), ErrorKind> {
-        let (material, uv_set) = self.material(primitive.material())?;
+        let MaterialUse {
+            slot: material,
+            uv_set,
+            uv_transform,
+        } = self.material(primitive.material())?;
 
         let buffers = self.buffers;
         let reader = primitive.reader(|buffer| buffers.get(buffer.index()).map(|data| &data[..]));
         let position_accessor = primitive
             .get(&Semantic::Positions)
             .ok_or_else(|| corrupt(format!("{context} has no POSITION attribute")))?;
-        let positions = self.read(&position_accessor, VEC3_F32, || reader.read_positions())?;
+        let positions = self.read_attribute(&position_accessor, POSITION_LAYOUTS, || {
+            reader.read_positions()
+        })?;
         let normals = primitive
             .get(&Semantic::Normals)
-            .map(|accessor| self.read(&accessor, VEC3_F32, || reader.read_normals()))
+            .map(|accessor| {
+                self.read_attribute(&accessor, NORMAL_LAYOUTS, || reader.read_normals())
+            })
             .transpose()?;
         let uvs = primitive
             .get(&Semantic::TexCoords(uv_set))
             .map(|accessor| {
-                self.read(&accessor, TEX_COORD_LAYOUTS, || {
+                self.read_attribute(&accessor, TEX_COORD_LAYOUTS, || {
                     reader.read_tex_coords(uv_set).map(|uvs| uvs.into_f32())
                 })
             })
-            .transpose()?;
+            .transpose()?
+            .map(|uvs| match uv_transform {
+                Some(transform) => uvs.into_iter().map(|uv| transform.apply(uv)).collect(),
+                None => uvs,
+            });
         let colors = primitive
             .get(&Semantic::Colors(0))
             .map(|accessor| {
@@ -580,6 +831,70 @@ impl Loader<'_, '_> {
         Ok(values.collect())
     }
 
+    /// Reads a vertex attribute as floats: float elements with the gltf reader (which also
+    /// applies sparse substitution), the integer ones of KHR_mesh_quantization here.
+    fn read_attribute<const N: usize, I: Iterator<Item = [f32; N]>>(
+        &self,
+        accessor: &Accessor<'_>,
+        layouts: &[(DataType, Dimensions)],
+        read: impl FnOnce() -> Option<I>,
+    ) -> Result<Vec<[f32; N]>, ErrorKind> {
+        if accessor.data_type() == DataType::F32 {
+            return self.read(accessor, layouts, read);
+        }
+        self.read_integers(accessor, layouts)
+    }
+
+    /// Reads integer elements as glTF converts them: normalized ones to [0, 1] (unsigned) or
+    /// [-1, 1] (signed), the others as they are.
+    fn read_integers<const N: usize>(
+        &self,
+        accessor: &Accessor<'_>,
+        layouts: &[(DataType, Dimensions)],
+    ) -> Result<Vec<[f32; N]>, ErrorKind> {
+        self.check_accessor(accessor, layouts)?;
+        let index = accessor.index();
+        if accessor.sparse().is_some() {
+            return Err(corrupt(format!(
+                "accessor {index}: sparse integer vertex attributes are not supported"
+            )));
+        }
+        let count = accessor.count();
+        let Some(view) = accessor.view() else {
+            return Ok(vec![[0.0; N]; count]);
+        };
+        let data = view_bytes(self.buffers, &view)?;
+        let (data_type, normalized) = (accessor.data_type(), accessor.normalized());
+        let component = data_type.size();
+        let stride = view.stride().unwrap_or(component * N);
+        // check_accessor has checked that every element lies within the view.
+        let value = |at: usize| -> f32 {
+            let (value, scale) = match data_type {
+                DataType::I8 => (f32::from(data[at] as i8), 127.0),
+                DataType::U8 => (f32::from(data[at]), 255.0),
+                DataType::I16 => (
+                    f32::from(i16::from_le_bytes([data[at], data[at + 1]])),
+                    32767.0,
+                ),
+                _ => (
+                    f32::from(u16::from_le_bytes([data[at], data[at + 1]])),
+                    65535.0,
+                ),
+            };
+            if normalized {
+                (value / scale).max(-1.0)
+            } else {
+                value
+            }
+        };
+        Ok((0..count)
+            .map(|i| {
+                let at = accessor.offset() + i * stride;
+                std::array::from_fn(|c| value(at + c * component))
+            })
+            .collect())
+    }
+
     /// Checks what the gltf reader assumes without checking: a layout it decodes, at least one
     /// element, strides no smaller than an element, and every byte it reads within its buffer.
     fn check_accessor(
@@ -663,9 +978,9 @@ impl Loader<'_, '_> {
         Ok(())
     }
 
-    /// The canonical material for a primitive's material, and the texture coordinate set its
-    /// base-colour texture samples (which becomes the canonical UVs of the primitive).
-    fn material(&mut self, material: gltf::Material<'_>) -> Result<(u32, u32), ErrorKind> {
+    /// The canonical material for a primitive's material, and the texture coordinates its
+    /// base-colour texture samples (which become the canonical UVs of the primitive).
+    fn material(&mut self, material: gltf::Material<'_>) -> Result<MaterialUse, ErrorKind> {
         let Some(index) = material.index() else {
             let slot = match self.default_material {
                 Some(slot) => slot,
@@ -674,7 +989,11 @@ impl Loader<'_, '_> {
                     *self.default_material.insert(slot)
                 }
             };
-            return Ok((slot, 0));
+            return Ok(MaterialUse {
+                slot,
+                uv_set: 0,
+                uv_transform: None,
+            });
         };
         if let Some(Some(known)) = self.materials.get(index) {
             return Ok(*known);
@@ -715,18 +1034,23 @@ impl Loader<'_, '_> {
             ));
         }
         let pbr = material.pbr_metallic_roughness();
-        let (texture, uv_set) = match pbr.base_color_texture() {
+        let (texture, uv_set, uv_transform) = match pbr.base_color_texture() {
             Some(info) => {
-                if extension(
-                    "pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform",
-                ) {
-                    self.warn(format!(
-                        "material `{name}`: KHR_texture_transform on the base-colour texture is ignored"
-                    ));
-                }
-                (Some(self.texture(&info.texture())?), info.tex_coord())
+                let pointer = format!(
+                    "/materials/{index}/pbrMetallicRoughness/baseColorTexture/extensions/KHR_texture_transform"
+                );
+                let (uv_transform, uv_set) = match raw.pointer(&pointer) {
+                    Some(json) => {
+                        let (transform, set) = UvTransform::parse(json).map_err(|e| {
+                            corrupt(format!("material `{name}`: KHR_texture_transform: {e}"))
+                        })?;
+                        (Some(transform), set.unwrap_or(info.tex_coord()))
+                    }
+                    None => (None, info.tex_coord()),
+                };
+                (Some(self.texture(&info.texture())?), uv_set, uv_transform)
             }
-            None => (None, 0),
+            None => (None, 0, None),
         };
         let converted = Material {
             name,
@@ -740,7 +1064,11 @@ impl Loader<'_, '_> {
             alpha_cutoff: material.alpha_cutoff().unwrap_or(DEFAULT_ALPHA_CUTOFF),
             double_sided: material.double_sided(),
         };
-        let known = (self.builder.add_material(converted), uv_set);
+        let known = MaterialUse {
+            slot: self.builder.add_material(converted),
+            uv_set,
+            uv_transform,
+        };
         if let Some(slot) = self.materials.get_mut(index) {
             *slot = Some(known);
         }

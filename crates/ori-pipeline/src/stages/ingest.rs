@@ -88,8 +88,9 @@ pub fn summary(mesh: &Mesh) -> MeshSummary {
 impl PipelineStage for Ingest {
     const NAME: &'static str = "ingest";
     /// 2: warnings for what the ORI does not carry (alpha blending, emission, material
-    /// extensions), which a cached ingest would not give.
-    const VERSION: u32 = 2;
+    /// extensions), which a cached ingest would not give. 3: gltfpack's extensions
+    /// (quantized attributes, meshopt compression, KHR_texture_transform on base colour).
+    const VERSION: u32 = 3;
     type Params = IngestJob;
 
     fn run(&self, params: IngestJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
