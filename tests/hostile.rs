@@ -462,14 +462,14 @@ fn a_cache_entry_replaced_by_a_folder_is_damage_not_a_failure() {
 }
 
 #[test]
-fn configuration_type_errors_name_the_key_and_line() {
+fn configuration_type_errors_name_the_key_line_and_column() {
     let p = project();
     p.config("[views]\ncount = 20\n[bake]\nmargin = -1\n");
     let out = build(&p, &[]);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
     assert!(
-        t.contains("line 14: `bake.margin`: invalid value: integer `-1`"),
+        t.contains("line 14, column 10: `bake.margin`: invalid value: integer `-1`"),
         "{t}"
     );
 
@@ -477,7 +477,10 @@ fn configuration_type_errors_name_the_key_and_line() {
     let out = build(&p, &[]);
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
-    assert!(t.contains("line 13: `overrides[0].select.s0`"), "{t}");
+    assert!(
+        t.contains("line 13, column 13: `overrides[0].select.s0`"),
+        "{t}"
+    );
 }
 
 #[test]

@@ -475,8 +475,8 @@ impl KeyPath {
         KeyPath(path)
     }
 
-    /// The 1-based line of the value at this path in `text`, if it is written there.
-    fn line_in(&self, text: &str) -> Option<usize> {
+    /// The 1-based line and column of the value at this path in `text`, if it is written there.
+    fn position_in(&self, text: &str) -> Option<(usize, usize)> {
         let document = toml::de::DeTable::parse(text).ok()?;
         let mut span = document.span();
         let mut table = Some(document.get_ref());
@@ -495,7 +495,10 @@ impl KeyPath {
             table = value.get_ref().as_table();
             array = value.get_ref().as_array();
         }
-        Some(text[..span.start.min(text.len())].matches('\n').count() + 1)
+        let before = &text[..span.start.min(text.len())];
+        let line_start = before.rfind('\n').map_or(0, |n| n + 1);
+        let column = before[line_start..].chars().count() + 1;
+        Some((before.matches('\n').count() + 1, column))
     }
 }
 
@@ -527,13 +530,16 @@ impl ValueError {
         }
     }
 
-    /// The message, with the key and its line in `text` when known.
+    /// The message, with the key and its place in `text` when known.
     fn describe(&self, text: &str) -> String {
         if self.key.0.is_empty() {
             return self.message.clone();
         }
-        match self.key.line_in(text) {
-            Some(line) => format!("line {line}: `{}`: {}", self.key, self.message),
+        match self.key.position_in(text) {
+            Some((line, column)) => format!(
+                "line {line}, column {column}: `{}`: {}",
+                self.key, self.message
+            ),
             None => format!("`{}`: {}", self.key, self.message),
         }
     }
