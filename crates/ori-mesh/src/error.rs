@@ -50,6 +50,10 @@ pub enum ErrorKind {
     /// An image could not be decoded.
     #[error("cannot decode image {name}: {message}")]
     Image { name: String, message: String },
+    /// An image in a format this loader does not decode (only PNG and JPEG): loaders drop the
+    /// texture with a warning rather than failing the model.
+    #[error("image `{name}` is {format}, which cannot be decoded (only PNG and JPEG can)")]
+    UnsupportedImage { name: String, format: &'static str },
     /// A face refers to a vertex that does not exist.
     #[error("{context}: index {index} is out of range ({count} vertices)")]
     IndexOutOfRange {

@@ -123,7 +123,7 @@ fn load_document(
     let raw: Value = gltf::json::deserialize::from_slice(json)
         .map_err(|e| corrupt(format!("invalid glTF JSON: {e}")))?;
     check_geometry_extensions(&raw)?;
-    let document = parse_document(json, warnings)?;
+    let document = parse_document(json, &raw, warnings)?;
     let mut buffers = load_buffers(&document, &raw, blob, resolver)?;
     decode_meshopt_views(&document, &raw, &mut buffers)?;
     let draws = scene_draws(&document, warnings)?;
@@ -256,7 +256,11 @@ fn check_geometry_extensions(raw: &Value) -> Result<(), ErrorKind> {
 /// Deserialises and validates the document. Required extensions left after the geometry check
 /// only affect appearance, so they are dropped with a warning instead of failing validation
 /// (the gltf crate refuses every required extension whose feature is not compiled in).
-fn parse_document(json: &[u8], warnings: &mut Vec<String>) -> Result<Document, ErrorKind> {
+fn parse_document(
+    json: &[u8],
+    raw: &Value,
+    warnings: &mut Vec<String>,
+) -> Result<Document, ErrorKind> {
     let mut root: gltf::json::Root = gltf::json::deserialize::from_slice(json)
         .map_err(|e| corrupt(format!("invalid glTF: {e}")))?;
     for name in root.extensions_required.drain(..) {
@@ -266,6 +270,23 @@ fn parse_document(json: &[u8], warnings: &mut Vec<String>) -> Result<Document, E
         warnings.push(format!(
             "required extension `{name}` is not supported; loading without it"
         ));
+    }
+    // A texture whose image is only in an extension (KHR_texture_basisu, EXT_texture_webp, ...)
+    // takes that image, so it is reported as a format the loader cannot read, not as damage.
+    for (t, texture) in root.textures.iter_mut().enumerate() {
+        if texture.source.value() == u32::MAX as usize
+            && let Some(image) = raw
+                .pointer(&format!("/textures/{t}/extensions"))
+                .and_then(Value::as_object)
+                .and_then(|extensions| {
+                    extensions
+                        .values()
+                        .find_map(|e| e.get("source").and_then(Value::as_u64))
+                })
+                .and_then(|image| u32::try_from(image).ok())
+        {
+            texture.source = gltf::json::Index::new(image);
+        }
     }
     // The validator indexes the POSITION accessor without a bounds check.
     for (m, mesh) in root.meshes.iter().enumerate() {
@@ -1048,7 +1069,22 @@ impl Loader<'_, '_> {
                     }
                     None => (None, info.tex_coord()),
                 };
-                (Some(self.texture(&info.texture())?), uv_set, uv_transform)
+                let texture = match self.texture(&info.texture()) {
+                    Ok(texture) => Some(texture),
+                    Err(ErrorKind::UnsupportedImage {
+                        name: image,
+                        format,
+                    }) => {
+                        self.warn(format!(
+                            "material `{name}`: its base-colour image `{image}` is {format}, which \
+                             the ORI cannot read (only PNG and JPEG); drawn with its base colour \
+                             factor alone"
+                        ));
+                        None
+                    }
+                    Err(e) => return Err(e),
+                };
+                (texture, uv_set, uv_transform)
             }
             None => (None, 0, None),
         };

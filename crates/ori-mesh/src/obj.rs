@@ -488,7 +488,20 @@ impl Library {
         // Cloned out of the definition, because loading the texture updates the texture cache.
         if let Some(reference) = definition.texture.clone() {
             let file = definition.file;
-            material.base_color_texture = Some(self.texture(&reference, file, builder, resolver)?);
+            material.base_color_texture = match self.texture(&reference, file, builder, resolver) {
+                Ok(texture) => Some(texture),
+                Err(MeshError {
+                    kind: ErrorKind::UnsupportedImage { format, .. },
+                    ..
+                }) => {
+                    warnings.push(format!(
+                        "material `{name}`: its texture `{reference}` is {format}, which the ORI \
+                         cannot read (only PNG and JPEG); drawn with its colour alone"
+                    ));
+                    None
+                }
+                Err(e) => return Err(e),
+            };
         }
         Ok(builder.add_material(material))
     }

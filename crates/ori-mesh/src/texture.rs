@@ -69,6 +69,11 @@ pub(crate) fn decode(
         let (w, h) = png_size(bytes).map_err(fail)?;
         budget.take(name, w, h)?;
         decode_png(bytes).map_err(fail)?
+    } else if let Some(format) = unsupported_format(bytes) {
+        return Err(ErrorKind::UnsupportedImage {
+            name: name.to_string(),
+            format,
+        });
     } else {
         return Err(fail("not a PNG or JPEG file".into()));
     };
@@ -84,6 +89,21 @@ pub(crate) fn decode(
         wrap_t: Wrap::Repeat,
         nearest: false,
     })
+}
+
+/// The image formats glTF extensions and engines use that [`decode`] does not, by signature.
+fn unsupported_format(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(b"\xABKTX 20\xBB\r\n\x1A\n") {
+        Some("KTX2")
+    } else if bytes.starts_with(b"\xABKTX 11\xBB\r\n\x1A\n") {
+        Some("KTX")
+    } else if bytes.len() >= 12 && bytes.starts_with(b"RIFF") && &bytes[8..12] == b"WEBP" {
+        Some("WebP")
+    } else if bytes.starts_with(b"DDS ") {
+        Some("DDS")
+    } else {
+        None
+    }
 }
 
 fn png_size(bytes: &[u8]) -> Result<(u32, u32), String> {

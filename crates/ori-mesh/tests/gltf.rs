@@ -788,3 +788,51 @@ fn damaged_glb_never_panics() {
         }
     }
 }
+
+/// A base-colour image in a format the loader does not decode (KTX2 through
+/// KHR_texture_basisu, WebP through EXT_texture_webp, with no PNG fallback) is dropped with a
+/// warning naming the material, the image and the format; the model still loads.
+#[test]
+fn base_colour_images_in_other_formats_are_dropped_with_a_warning() {
+    let mut bin = Vec::new();
+    for f in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        bin.extend(f.to_le_bytes());
+    }
+    let ktx2 = b"\xABKTX 20\xBB\r\n\x1A\n\0\0\0\0";
+    let webp = b"RIFF\x10\0\0\0WEBPVP8L";
+    for (extension, file, bytes, format) in [
+        ("KHR_texture_basisu", "t.ktx2", &ktx2[..], "KTX2"),
+        ("EXT_texture_webp", "t.webp", &webp[..], "WebP"),
+    ] {
+        let json = format!(
+            r#"{{
+                "asset": {{"version": "2.0"}},
+                "extensionsUsed": ["{extension}"], "extensionsRequired": ["{extension}"],
+                "scenes": [{{"nodes": [0]}}],
+                "nodes": [{{"mesh": 0}}],
+                "meshes": [{{"primitives": [{{"material": 0, "attributes": {{"POSITION": 0}}}}]}}],
+                "materials": [{{"name": "skin", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}},
+                    "baseColorFactor": [0.5, 0.5, 0.5, 1]}}}}],
+                "textures": [{{"extensions": {{"{extension}": {{"source": 0}}}}}}],
+                "images": [{{"uri": "{file}"}}],
+                "buffers": [{{"byteLength": 36, "uri": "data:;base64,{data}"}}],
+                "bufferViews": [{{"buffer": 0, "byteLength": 36}}],
+                "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                    "min": [0, 0, 0], "max": [1, 1, 0]}}]
+            }}"#,
+            data = BASE64.encode(&bin)
+        );
+        let loaded = load_in_memory("a.gltf", json.as_bytes(), &[(file, bytes)])
+            .unwrap_or_else(|e| panic!("{extension}: {e}"));
+        let warnings = loaded.warnings.join("\n");
+        assert!(
+            warnings.contains(&format!(
+                "material `skin`: its base-colour image `{file}` is {format}"
+            )),
+            "{warnings}"
+        );
+        let material = &loaded.mesh.materials[0];
+        assert_eq!(material.base_color_texture, None);
+        assert_eq!(material.base_color_factor, [0.5, 0.5, 0.5, 1.0]);
+    }
+}

@@ -325,6 +325,25 @@ fn obj_texture_is_loaded_once_and_only_for_used_materials() {
 }
 
 #[test]
+fn obj_texture_in_another_format_is_dropped_with_a_warning() {
+    let obj = format!("mtllib m.mtl\n{QUAD}usemtl a\nf 1 2 3\n");
+    let mtl = "newmtl a\nKd 1 0 0\nmap_Kd t.dds\n";
+    let loaded = load_with(
+        "model.obj",
+        obj.as_bytes(),
+        &[("m.mtl", mtl.as_bytes()), ("t.dds", b"DDS \x7c\0\0\0")],
+    )
+    .unwrap();
+    let warnings = loaded.warnings.join("\n");
+    assert!(
+        warnings.contains("material `a`: its texture `t.dds` is DDS"),
+        "{warnings}"
+    );
+    assert_eq!(loaded.mesh.materials[0].base_color_texture, None);
+    assert!(loaded.mesh.textures.is_empty());
+}
+
+#[test]
 fn obj_faces_before_usemtl_use_the_default_material() {
     let obj = format!("mtllib m.mtl\n{QUAD}f 1 2 3\nusemtl green\nf 1 3 4\n");
     let mtl = "newmtl green\nKd 0 1 0\n";
