@@ -120,8 +120,27 @@ fn check_server(server: &Nginx) -> (usize, usize) {
     (blobs, entries)
 }
 
+/// The megabytes a remote line says were downloaded and uploaded.
+fn megabytes_moved(line: &str) -> (f64, f64) {
+    let mb: Vec<f64> = line
+        .split(" MB")
+        .filter_map(|part| part.rsplit(' ').next()?.parse().ok())
+        .collect();
+    assert_eq!(mb.len(), 2, "{line}");
+    (mb[0], mb[1])
+}
+
+/// The bytes of the packages in a release folder.
+fn package_bytes(out: &Path) -> u64 {
+    files(out)
+        .iter()
+        .filter(|f| f.extension().is_some_and(|e| e == "ori"))
+        .map(|f| fs::metadata(f).unwrap().len())
+        .sum()
+}
+
 #[test]
-fn a_builder_with_an_empty_cache_downloads_everything_and_runs_nothing() {
+fn a_builder_with_an_empty_cache_downloads_the_packages_and_runs_nothing() {
     let s = server();
     let p = project(&SAMPLES, &s.url("cache"), "read-write");
     let cold = build_as(&p, "a", &[]);
@@ -144,6 +163,16 @@ fn a_builder_with_an_empty_cache_downloads_everything_and_runs_nothing() {
         line.contains("downloaded 24 entries") && line.contains("uploaded 0 entries"),
         "{line}"
     );
+    // Only what the release reads moves: the packages (and the small summaries the report
+    // reads), not the intermediate results the cold build uploaded.
+    let (downloaded, _) = megabytes_moved(&line);
+    let (_, uploaded) = megabytes_moved(&remote_line(&cold));
+    let packages = package_bytes(&p.path("out-b")) as f64 / 1e6;
+    assert!(
+        downloaded >= packages && downloaded < packages * 1.05 + 0.1,
+        "{line}; packages {packages} MB"
+    );
+    assert!(uploaded > 3.0 * downloaded, "{uploaded} MB uploaded");
     assert!(remote_warnings(&warm).is_empty(), "{t}");
     same_release(
         &tree(&p.path("out-a")),
@@ -151,11 +180,59 @@ fn a_builder_with_an_empty_cache_downloads_everything_and_runs_nothing() {
         "downloaded from the remote cache",
     );
 
-    // The local cache is complete now: a rebuild asks the server nothing.
+    // The local cache holds every entry and what the release reads: a rebuild asks the
+    // server nothing.
     let requests = s.access_log().lines().count();
     let again = build_as(&p, "b", &[]);
     assert_eq!(ran_all(&again), [0; 8]);
     assert_eq!(s.access_log().lines().count(), requests);
+}
+
+/// A job that runs on a builder that took its inputs' entries from the server (but not their
+/// bytes) fetches them then; with the server gone, the jobs that made them run again.
+#[test]
+fn results_fetched_lazily_are_fetched_or_made_again_when_a_job_needs_them() {
+    let mut s = server();
+    let p = project(&SAMPLES[..2], &s.url("cache"), "read-write");
+    ok(&build_as(&p, "a", &[]));
+    ok(&build_as(&p, "b", &[]));
+
+    // A texture setting: the compress and package jobs run, reading the bake's maps, which
+    // machine b never downloaded.
+    p.config(&format!(
+        "{}[compress]\nquality = \"fast\"\n",
+        remote(&s.url("cache"), "read-write")
+    ));
+    let out = build_as(&p, "b", &[]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "compress"), 2, "{t}");
+    assert_eq!((ran(&out, "bake"), ran(&out, "ingest")), (0, 0), "{t}");
+    assert!(remote_warnings(&out).is_empty(), "{t}");
+    let (downloaded, _) = megabytes_moved(&remote_line(&out));
+    assert!(downloaded > 1.0, "the maps were fetched: {t}");
+    ok(&build_as(&p, "a", &[]));
+    same_release(&tree(&p.path("out-a")), &tree(&p.path("out-b")), "fetched");
+
+    // The server gone: a PLT setting re-runs the PLT jobs, whose inputs machine b never
+    // fetched; the jobs that made them run again here, and the release is still right.
+    s.stop();
+    p.config(&format!(
+        "{}[compress]\nquality = \"fast\"\n[plt]\nheld_out_seed = 2\n",
+        remote(&s.url("cache"), "read-write")
+    ));
+    let out = build_as(&p, "b", &[]);
+    let t = ok(&out);
+    assert_eq!(ran(&out, "plt"), 2, "{t}");
+    assert_eq!(remote_warnings(&out).len(), 1, "{t}");
+    assert!(t.contains("re-running stage"), "{t}");
+    let plain = Project::new(&SAMPLES[..2]);
+    plain.config("[compress]\nquality = \"fast\"\n[plt]\nheld_out_seed = 2\n");
+    ok(&plain.build(&[]));
+    same_release(
+        &tree(&plain.path("out")),
+        &tree(&p.path("out-b")),
+        "made again",
+    );
 }
 
 #[test]

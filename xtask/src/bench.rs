@@ -46,11 +46,15 @@ pub enum Bench {
     /// geometry is edited, against that model's own cold build.
     Release,
     /// A cold build of ../shared/models filling a remote cache (a local nginx), then a build
-    /// from an empty local cache taking everything from it: times and bytes moved.
+    /// and an `assemble` from empty local caches taking everything from it: times and bytes
+    /// moved.
     Remote {
         /// Also time a cold build without the remote cache.
         #[arg(long)]
         baseline: bool,
+        /// The models to build (default: ../shared/models).
+        #[arg(long)]
+        models: Option<std::path::PathBuf>,
     },
     /// A cold build of one model at a time, models of growing size: the build's seconds, each
     /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
@@ -102,7 +106,9 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Select { runs } => select(runs),
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
-        Bench::Remote { baseline } => crate::bench_remote::run(baseline),
+        Bench::Remote { baseline, models } => {
+            crate::bench_remote::run(baseline, &models.unwrap_or_else(shared_models))
+        }
         Bench::Scale { runs, models } => crate::bench_scale::run(runs, &models),
         Bench::Catalogue {
             assets,

@@ -1,20 +1,30 @@
 //! `cargo xtask bench remote`: a cold build of ../shared/models that fills a remote cache (a
-//! local nginx WebDAV server), then a build of the same models from an empty local cache that
-//! takes everything from it; times and the bytes the client moved.
+//! local nginx WebDAV server), then a build and an `assemble` of the same models, each from an
+//! empty local cache, that take everything from it; times and the bytes the client moved.
 
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use crate::bench::{copy_tree, shared_models};
+use crate::bench::copy_tree;
 use crate::nginx::Nginx;
 
 /// One build: its wall time and its output (summary included).
 fn build(config: &Path, cache: &Path, out: &Path) -> Result<(Duration, String), String> {
+    run_command("build-assets", config, cache, out)
+}
+
+/// `command` (`build-assets` or `assemble`) on `config`: its wall time and its output.
+fn run_command(
+    command: &str,
+    config: &Path,
+    cache: &Path,
+    out: &Path,
+) -> Result<(Duration, String), String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
     let start = Instant::now();
     let output = Command::new(exe)
-        .args(["build-assets", "--quiet", "--no-report", "--config"])
+        .args([command, "--quiet", "--no-report", "--config"])
         .arg(config)
         .arg("--cache")
         .arg(cache)
@@ -29,7 +39,7 @@ fn build(config: &Path, cache: &Path, out: &Path) -> Result<(Duration, String), 
         String::from_utf8_lossy(&output.stderr)
     );
     if !output.status.success() {
-        return Err(format!("build failed:\n{text}"));
+        return Err(format!("{command} failed:\n{text}"));
     }
     Ok((elapsed, text))
 }
@@ -52,8 +62,8 @@ fn jobs_ran(text: &str) -> usize {
     .sum()
 }
 
-/// Output bytes per stage over the action entries of a local cache (each blob counted once),
-/// e.g. `ingest 12.3 MB, views 0.1 MB, ...`.
+/// Output bytes per stage held by a local cache (each blob counted once; the outputs its
+/// entries list but that were never fetched are not), e.g. `ingest 12.3 MB, views 0.1 MB, ...`.
 fn by_stage(cache: &Path) -> Result<String, String> {
     let mut seen = std::collections::BTreeSet::new();
     let mut sizes: Vec<(String, u64)> = Vec::new();
@@ -72,7 +82,9 @@ fn by_stage(cache: &Path) -> Result<String, String> {
             .into_iter()
             .flat_map(|o| o.values())
         {
-            if seen.insert(blob["hash"].as_str().unwrap_or("").to_string()) {
+            let hash = blob["hash"].as_str().unwrap_or("");
+            let held = hash.len() > 2 && cache.join("cas").join(&hash[..2]).join(hash).is_file();
+            if held && seen.insert(hash.to_string()) {
                 bytes += blob["size"].as_u64().unwrap_or(0);
             }
         }
@@ -89,10 +101,10 @@ fn by_stage(cache: &Path) -> Result<String, String> {
 }
 
 /// `baseline`: also time a cold build without the remote cache (the cost of uploading).
-pub fn run(baseline: bool) -> Result<(), String> {
+pub fn run(baseline: bool, models: &Path) -> Result<(), String> {
     let server = Nginx::start()?;
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
-    copy_tree(&shared_models(), &dir.path().join("assets"))?;
+    copy_tree(models, &dir.path().join("assets"))?;
     let with_remote = dir.path().join("remote.toml");
     let plain = dir.path().join("plain.toml");
     let assets = "[assets]\nroot = \"assets\"\n";
@@ -111,7 +123,8 @@ pub fn run(baseline: bool) -> Result<(), String> {
     if baseline {
         let (t, _) = build(&plain, &p("cache-plain"), &p("out-plain"))?;
         println!(
-            "cold build of ../shared/models without a remote cache: {:.2} s",
+            "cold build of {} without a remote cache: {:.2} s",
+            models.display(),
             t.as_secs_f64()
         );
     }
@@ -132,18 +145,28 @@ pub fn run(baseline: bool) -> Result<(), String> {
     if ran != 0 {
         return Err(format!("the build from the remote cache ran {ran} jobs"));
     }
-    println!(
-        "  downloaded output bytes by stage: {}",
-        by_stage(&p("cache-b"))?
-    );
+    println!("  output bytes held by stage: {}", by_stage(&p("cache-b"))?);
     let (noop, _) = build(&with_remote, &p("cache-b"), &p("out-b"))?;
     println!(
         "then a no-op rebuild (local cache, no request): {:.2} s",
         noop.as_secs_f64()
     );
+    let (assemble, text) = run_command("assemble", &with_remote, &p("cache-c"), &p("out-c"))?;
+    let packages: u64 = walkdir::WalkDir::new(p("out-c"))
+        .into_iter()
+        .filter_map(Result::ok)
+        .filter(|e| e.path().extension().is_some_and(|x| x == "ori"))
+        .filter_map(|e| e.metadata().ok().map(|m| m.len()))
+        .sum();
+    println!(
+        "assemble from an empty local cache:             {:.2} s (the packages are {:.2} MB)\n  {}",
+        assemble.as_secs_f64(),
+        packages as f64 / 1e6,
+        line(&text, "remote cache")?
+    );
     let release = |out: &str| std::fs::read(p(out).join("release.json")).map_err(|e| e.to_string());
-    if release("out-a")? != release("out-b")? {
-        return Err("the two releases differ".into());
+    if release("out-a")? != release("out-b")? || release("out-a")? != release("out-c")? {
+        return Err("the releases differ".into());
     }
     ori_pipeline::release::verify(&p("out-b")).map_err(|e| e.join("\n"))?;
     let stored: Vec<u64> = walkdir::WalkDir::new(server.root())

@@ -1,6 +1,6 @@
 //! The scheduler: runs a [`Graph`] against a [`Cache`], in parallel, reusing what it can.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashSet};
 use std::io;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
@@ -67,6 +67,14 @@ pub fn run<'g>(
     observer: &'g dyn Observer,
 ) -> Build<'g> {
     let mut dependents = vec![Vec::new(); graph.len()];
+    let mut read_later: Vec<HashSet<String>> = vec![HashSet::new(); graph.len()];
+    for job in &graph.jobs {
+        for (_, input) in &job.inputs {
+            if let Input::Output { job, name } = input {
+                read_later[job.0].insert(name.clone());
+            }
+        }
+    }
     let pending: Vec<AtomicUsize> = graph
         .jobs
         .iter()
@@ -98,6 +106,7 @@ pub fn run<'g>(
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
         cached_only: options.cached_only,
+        fetch_lazily: options.remote.as_ref().map(|_| read_later),
         observer,
     };
     observer.run_started(graph);
@@ -196,6 +205,10 @@ struct Exec<'g> {
     results: Vec<OnceLock<JobResult>>,
     dry_run: bool,
     cached_only: bool,
+    /// With a remote tier: per job, the outputs that later jobs of this graph read. A hit
+    /// does not fetch them; the job that reads one fetches it (or, failing that, makes it
+    /// again) when it runs, so a hit whose dependents are hits too moves no bytes.
+    fetch_lazily: Option<Vec<HashSet<String>>>,
     observer: &'g dyn Observer,
 }
 
@@ -308,7 +321,7 @@ impl<'g> Exec<'g> {
         };
         let key = job_key(job.stage.name(), job.stage.version(), &job.params, &inputs);
         let reason = match self.store.local_action(&key, self.observer) {
-            Lookup::Found(entry) => match self.validate(job, &entry) {
+            Lookup::Found(entry) => match self.validate(id, &entry) {
                 Ok(()) => {
                     return JobResult {
                         outcome: Outcome::Reused,
@@ -320,7 +333,7 @@ impl<'g> Exec<'g> {
                 }
                 Err(reason) => reason,
             },
-            Lookup::Missing => match self.remote_hit(job, &key, &inputs) {
+            Lookup::Missing => match self.remote_hit(id, &key, &inputs) {
                 Some(entry) => {
                     return JobResult {
                         outcome: Outcome::Reused,
@@ -375,8 +388,10 @@ impl<'g> Exec<'g> {
     }
 
     /// Check that a cached result is still valid: the files the stage discovered are
-    /// unchanged and every output blob is present.
-    fn validate(&self, job: &JobSpec, entry: &ActionEntry) -> Result<(), RunReason> {
+    /// unchanged and every output blob is present (fetched from the remote tier if need be),
+    /// but for the outputs fetched lazily.
+    fn validate(&self, id: JobId, entry: &ActionEntry) -> Result<(), RunReason> {
+        let job = self.graph.job(id);
         let dir = source_dir(job);
         for file in &entry.discovered {
             let current = match dir {
@@ -395,7 +410,11 @@ impl<'g> Exec<'g> {
                 )));
             }
         }
+        let lazy = self.fetch_lazily.as_ref().map(|outputs| &outputs[id.0]);
         for (name, blob) in &entry.outputs {
+            if lazy.is_some_and(|lazy| lazy.contains(name)) {
+                continue;
+            }
             if !self.store.ensure_blob(blob, self.observer) {
                 return Err(RunReason::CorruptEntry(format!(
                     "output `{name}` ({}) is missing or truncated",
@@ -407,14 +426,16 @@ impl<'g> Exec<'g> {
     }
 
     /// The remote cache's result for a job missing from the local cache: its entry, checked
-    /// like a local one (discovered files unchanged, every output blob downloaded and
-    /// verified), then stored locally. A dry run only checks the entry and writes nothing.
+    /// like a local one (discovered files unchanged, every output blob that is not fetched
+    /// lazily downloaded and verified), then stored locally. A dry run only checks the entry
+    /// and writes nothing.
     fn remote_hit(
         &self,
-        job: &JobSpec,
+        id: JobId,
         key: &ContentHash,
         inputs: &[(String, ContentHash)],
     ) -> Option<ActionEntry> {
+        let job = self.graph.job(id);
         let (entry, remote) = self.store.remote_action(key, self.observer)?;
         if entry.stage != job.stage.name() {
             self.observer.note(&format!(
@@ -433,7 +454,7 @@ impl<'g> Exec<'g> {
             });
             return unchanged.then_some(entry);
         }
-        self.validate(job, &entry).ok()?;
+        self.validate(id, &entry).ok()?;
         let record = JobRecord {
             key: *key,
             stage_version: job.stage.version(),

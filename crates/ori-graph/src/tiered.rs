@@ -1,7 +1,7 @@
 //! The local cache in front of an optional remote one ([`Tiered`]): all the scheduler
 //! (`run.rs`) talks to. It reads through (a blob missing locally is fetched and kept) and
-//! keeps what ran in both tiers (blobs first, then the entry, so no tier lists an entry whose
-//! blobs it lacks).
+//! keeps what ran in both tiers (blobs first, then the entry, so the remote tier never lists
+//! an entry whose blobs it lacks; the local one may, for blobs the scheduler fetches lazily).
 
 use std::io;
 use std::sync::Arc;
