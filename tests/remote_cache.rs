@@ -87,9 +87,14 @@ fn files(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// Every blob on the server hashes to its name; every action entry's checksum holds.
-/// Returns (blobs, entries).
+/// Every blob on the server hashes to its name (blake3 hex); every action entry's checksum
+/// holds. Returns (blobs, entries).
 fn check_server(server: &Nginx) -> (usize, usize) {
+    check_server_names(server, |bytes| blake3::hash(bytes).to_hex().to_string())
+}
+
+/// [`check_server`] with blobs named by `name_of` their bytes.
+fn check_server_names(server: &Nginx, name_of: impl Fn(&[u8]) -> String) -> (usize, usize) {
     let base = server.root().join("cache");
     let (mut blobs, mut entries) = (0, 0);
     for path in files(&base) {
@@ -104,7 +109,7 @@ fn check_server(server: &Nginx) -> (usize, usize) {
             .unwrap()
         {
             "cas" => {
-                assert_eq!(blake3::hash(&bytes).to_hex().as_str(), name, "{path:?}");
+                assert_eq!(name_of(&bytes), name, "{path:?}");
                 blobs += 1;
             }
             "ac" => {
@@ -186,6 +191,49 @@ fn a_builder_with_an_empty_cache_downloads_the_packages_and_runs_nothing() {
     let again = build_as(&p, "b", &[]);
     assert_eq!(ran_all(&again), [0; 8]);
     assert_eq!(s.access_log().lines().count(), requests);
+}
+
+/// With `digest = "sha256"` every blob on the server is named by the sha256 of its bytes, as
+/// bazel-remote requires, and builders find every result by those names.
+#[test]
+fn sha256_digests_name_every_blob_as_bazel_remote_requires() {
+    use sha2::Digest as _;
+    let s = server();
+    let sha256 = format!(
+        "{}digest = \"sha256\"\n",
+        remote(&s.url("cache"), "read-write")
+    );
+    let p = Project::new(&SAMPLES[..2]);
+    p.config(&sha256);
+    let cold = build_as(&p, "a", &[]);
+    let t = ok(&cold);
+    assert!(
+        remote_line(&cold).contains("(read-write, sha256 names)"),
+        "{t}"
+    );
+    let hex = |bytes: &[u8]| {
+        sha2::Sha256::digest(bytes)
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect::<String>()
+    };
+    let (blobs, entries) = check_server_names(&s, hex);
+    assert!(
+        blobs > 10 && entries == 16,
+        "{blobs} blobs, {entries} entries"
+    );
+
+    let warm = build_as(&p, "b", &[]);
+    let t = ok(&warm);
+    assert_eq!(ran_all(&warm), [0; 8], "{t}");
+    same_release(&tree(&p.path("out-a")), &tree(&p.path("out-b")), "sha256");
+    // A job that runs fetches its lazily kept inputs by their sha256 names.
+    p.config(&format!("{sha256}[compress]\nquality = \"fast\"\n"));
+    let out = build_as(&p, "b", &[]);
+    let t = ok(&out);
+    assert_eq!((ran(&out, "compress"), ran(&out, "bake")), (2, 0), "{t}");
+    assert!(remote_warnings(&out).is_empty(), "{t}");
+    check_server_names(&s, hex);
 }
 
 /// A job that runs on a builder that took its inputs' entries from the server (but not their

@@ -55,6 +55,9 @@ pub enum Bench {
         /// The models to build (default: ../shared/models).
         #[arg(long)]
         models: Option<std::path::PathBuf>,
+        /// How the server names blobs: `blake3` or `sha256` (bazel-remote compatible).
+        #[arg(long, default_value = "blake3")]
+        digest: String,
     },
     /// A cold build of one model at a time, models of growing size: the build's seconds, each
     /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
@@ -106,9 +109,11 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Select { runs } => select(runs),
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
-        Bench::Remote { baseline, models } => {
-            crate::bench_remote::run(baseline, &models.unwrap_or_else(shared_models))
-        }
+        Bench::Remote {
+            baseline,
+            models,
+            digest,
+        } => crate::bench_remote::run(baseline, &models.unwrap_or_else(shared_models), &digest),
         Bench::Scale { runs, models } => crate::bench_scale::run(runs, &models),
         Bench::Catalogue {
             assets,

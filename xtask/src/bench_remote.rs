@@ -101,7 +101,7 @@ fn by_stage(cache: &Path) -> Result<String, String> {
 }
 
 /// `baseline`: also time a cold build without the remote cache (the cost of uploading).
-pub fn run(baseline: bool, models: &Path) -> Result<(), String> {
+pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
     let server = Nginx::start()?;
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
     copy_tree(models, &dir.path().join("assets"))?;
@@ -112,7 +112,7 @@ pub fn run(baseline: bool, models: &Path) -> Result<(), String> {
     std::fs::write(
         &with_remote,
         format!(
-            "{assets}[cache.remote]\nurl = \"{}\"\nmode = \"read-write\"\ntimeout_s = 60\n",
+            "{assets}[cache.remote]\nurl = \"{}\"\nmode = \"read-write\"\ntimeout_s = 60\ndigest = \"{digest}\"\n",
             server.url("cache")
         ),
     )

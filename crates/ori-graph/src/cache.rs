@@ -46,6 +46,10 @@ pub struct ActionEntry {
     pub outputs: BTreeMap<String, BlobRef>,
     pub discovered: Vec<DiscoveredFile>,
     pub warnings: Vec<String>,
+    /// The outputs' names in a remote cache that names blobs by sha256 (bazel-remote
+    /// compatible digests), for an entry that came from one; empty otherwise.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub remote_names: BTreeMap<String, ContentHash>,
 }
 
 /// The last run of one (asset, stage): the key and what went into it. Only used to say why a
@@ -331,6 +335,7 @@ mod tests {
             outputs: BTreeMap::from([("mesh".into(), cache.put_blob(b"m").unwrap())]),
             discovered: vec![],
             warnings: vec!["w".into()],
+            remote_names: BTreeMap::new(),
         };
         cache.write_action(&key, &entry).unwrap();
         assert_eq!(cache.read_action(&key).unwrap(), entry);

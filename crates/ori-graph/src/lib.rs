@@ -28,7 +28,9 @@ pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec};
 pub use memo::{MEMO_SHARDS, MemoKey, MemoMap};
 pub use outcome::{JobResult, Observer, Outcome, RunReason, Silent};
-pub use remote::{Namespace, RemoteCache, RemoteError, RemoteMode, RemoteStats, RemoteStore};
+pub use remote::{
+    Namespace, RemoteCache, RemoteDigest, RemoteError, RemoteMode, RemoteStats, RemoteStore,
+};
 pub use run::{Build, MAX_THREADS, RunOptions, StageSummary, run};
 pub use sources::{DEFAULT_MAX_FILE_BYTES, FileVersion, RACY_WINDOW, SourceHasher, SourceRules};
 pub use stage::{JobContext, Stage, StageError};

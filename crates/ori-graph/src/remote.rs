@@ -2,11 +2,13 @@
 //! and (in `read-write` mode) fill, behind the local cache.
 //!
 //! The protocol is the HTTP remote cache that Bazel clients speak and that bazel-remote or an
-//! nginx WebDAV location serve: `GET`, `PUT` and `HEAD` of `{base}/cas/{hash}` for blobs and
-//! `{base}/ac/{key}` for action entries. Our hashes are blake3 in hex and our action entries
-//! are the local cache's checksummed JSON (not Bazel's `ActionResult`), so a server that
-//! checks sha256 content addresses (bazel-remote) rejects them; a plain HTTP or WebDAV store
-//! accepts them.
+//! nginx WebDAV location serve: `GET`, `PUT` and `HEAD` of `{base}/cas/{name}` for blobs and
+//! `{base}/ac/{key}` for action entries (job keys, in hex). Blobs are named by their blake3
+//! ([`RemoteDigest::Blake3`]), or by their sha256 ([`RemoteDigest::Sha256`]), which servers
+//! that check content addresses (bazel-remote, the REAPI) require; then each action entry
+//! carries its outputs' sha256 names, so a builder can fetch them. Action entries are the
+//! local cache's checksummed JSON (not Bazel's `ActionResult`; bazel-remote stores them with
+//! its action-cache validation off).
 //!
 //! The graph talks to a [`RemoteStore`] (trait object), so tests can use an in-memory store;
 //! the HTTP one lives in the `ori-http-store` crate, so this crate needs no HTTP client. [`RemoteCache`] adds the policy: everything downloaded is
@@ -14,7 +16,7 @@
 //! are a miss with a warning; the first time the server is unreachable, slow or failing, one
 //! warning is printed and it is not asked again during this build; uploads are best effort.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -85,6 +87,23 @@ pub trait RemoteStore: Send + Sync {
     fn put(&self, ns: Namespace, hash: &ContentHash, bytes: &[u8]) -> Result<(), RemoteError>;
 }
 
+/// How blobs are named on the server.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RemoteDigest {
+    /// blake3, the local cache's own hash: no extra hashing.
+    #[default]
+    Blake3,
+    /// sha256 of the content, as bazel-remote and the REAPI check.
+    Sha256,
+}
+
+/// The sha256 of `bytes`, as a name.
+fn sha256(bytes: &[u8]) -> ContentHash {
+    use sha2::Digest as _;
+    ContentHash(sha2::Sha256::digest(bytes).into())
+}
+
 /// Whether this builder uploads what it builds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -130,6 +149,10 @@ const HEAD_BEFORE_PUT: u64 = 64 << 10;
 pub struct RemoteCache {
     store: Box<dyn RemoteStore>,
     mode: RemoteMode,
+    digest: RemoteDigest,
+    /// sha256 names of blobs (by blake3), learnt from entries and uploads, with
+    /// [`RemoteDigest::Sha256`].
+    names: Mutex<HashMap<ContentHash, ContentHash>>,
     offline: AtomicBool,
     uploads_off: AtomicBool,
     /// Blobs found damaged on the server: uploaded again (without `HEAD`) once rebuilt.
@@ -148,10 +171,12 @@ impl fmt::Debug for RemoteCache {
 
 impl RemoteCache {
     /// A remote cache over `store`.
-    pub fn new(store: Box<dyn RemoteStore>, mode: RemoteMode) -> RemoteCache {
+    pub fn new(store: Box<dyn RemoteStore>, mode: RemoteMode, digest: RemoteDigest) -> RemoteCache {
         RemoteCache {
             store,
             mode,
+            digest,
+            names: Mutex::new(HashMap::new()),
             offline: AtomicBool::new(false),
             uploads_off: AtomicBool::new(false),
             damaged: Mutex::new(HashSet::new()),
@@ -167,6 +192,54 @@ impl RemoteCache {
     /// The mode it was opened in.
     pub fn mode(&self) -> RemoteMode {
         self.mode
+    }
+
+    /// How it names blobs.
+    pub fn digest(&self) -> RemoteDigest {
+        self.digest
+    }
+
+    /// Remember the sha256 names an entry gives its outputs.
+    pub(crate) fn learn_names(&self, entry: &ActionEntry) {
+        if self.digest != RemoteDigest::Sha256 || entry.remote_names.is_empty() {
+            return;
+        }
+        let mut names = self.names.lock().unwrap_or_else(|e| e.into_inner());
+        for (output, blob) in &entry.outputs {
+            if let Some(name) = entry.remote_names.get(output) {
+                names.insert(blob.hash, *name);
+            }
+        }
+    }
+
+    /// The server's name for `blob`: its blake3, or its sha256 (from `bytes` when given,
+    /// else as learnt; `None` when unknown).
+    fn cas_name(&self, blob: &BlobRef, bytes: Option<&[u8]>) -> Option<ContentHash> {
+        match (self.digest, bytes) {
+            (RemoteDigest::Blake3, _) => Some(blob.hash),
+            (RemoteDigest::Sha256, Some(bytes)) => Some(sha256(bytes)),
+            (RemoteDigest::Sha256, None) => self
+                .names
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .get(&blob.hash)
+                .copied(),
+        }
+    }
+
+    /// Upload a blob (as [`ResultStore::keep_blob`]) and give its sha256 name, with
+    /// [`RemoteDigest::Sha256`], for the entry that lists it.
+    pub(crate) fn keep_named_blob(
+        &self,
+        blob: &BlobRef,
+        bytes: &[u8],
+        observer: &dyn Observer,
+    ) -> Result<Option<ContentHash>, String> {
+        self.keep_blob(blob, bytes, observer)?;
+        Ok(match self.digest {
+            RemoteDigest::Blake3 => None,
+            RemoteDigest::Sha256 => self.cas_name(blob, Some(bytes)),
+        })
     }
 
     /// Whether the store failed during this build (and is no longer asked).
@@ -252,18 +325,16 @@ impl RemoteCache {
     }
 
     fn try_put_blob(&self, blob: &BlobRef, bytes: &[u8]) -> Result<(), RemoteError> {
+        let name = self.cas_name(blob, Some(bytes)).unwrap_or(blob.hash);
         let damaged = self
             .damaged
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .remove(&blob.hash);
-        if !damaged
-            && blob.size >= HEAD_BEFORE_PUT
-            && self.store.contains(Namespace::Cas, &blob.hash)?
-        {
+        if !damaged && blob.size >= HEAD_BEFORE_PUT && self.store.contains(Namespace::Cas, &name)? {
             return Ok(());
         }
-        self.store.put(Namespace::Cas, &blob.hash, bytes)?;
+        self.store.put(Namespace::Cas, &name, bytes)?;
         self.counters.blobs_up.fetch_add(1, Ordering::Relaxed);
         self.counters
             .bytes_up
@@ -325,7 +396,10 @@ impl ResultStore for RemoteCache {
         if self.is_offline() {
             return Lookup::Missing;
         }
-        let bytes = match self.store.get(Namespace::Cas, &blob.hash, blob.size) {
+        let Some(name) = self.cas_name(blob, None) else {
+            return Lookup::Missing;
+        };
+        let bytes = match self.store.get(Namespace::Cas, &name, blob.size) {
             Ok(Some(bytes)) => bytes,
             Ok(None) => return Lookup::Missing,
             Err(RemoteError::Invalid(why)) => {

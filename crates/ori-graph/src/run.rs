@@ -392,6 +392,8 @@ impl<'g> Exec<'g> {
     /// but for the outputs fetched lazily.
     fn validate(&self, id: JobId, entry: &ActionEntry) -> Result<(), RunReason> {
         let job = self.graph.job(id);
+        // What a lazily fetched output is called on the server, for the job that reads it.
+        self.store.learn_remote_names(entry);
         let dir = source_dir(job);
         for file in &entry.discovered {
             let current = match dir {
@@ -551,6 +553,7 @@ impl<'g> Exec<'g> {
             outputs,
             discovered: left.discovered,
             warnings: left.warnings,
+            remote_names: BTreeMap::new(),
         })
     }
 
@@ -599,6 +602,11 @@ impl<'g> Exec<'g> {
                     job.stage.name()
                 ),
             ));
+        }
+        // Kept again in both tiers: a copy the remote one had damaged is replaced.
+        let key = job_key(job.stage.name(), job.stage.version(), &job.params, &inputs);
+        if let Err(message) = self.store.keep(&key, &entry, self.observer) {
+            self.observer.note(&format!("warning: {message}"));
         }
         self.store
             .local()

@@ -54,6 +54,13 @@ impl Tiered {
         }
     }
 
+    /// Remember the remote names an entry gives its outputs, to fetch them later.
+    pub fn learn_remote_names(&self, entry: &ActionEntry) {
+        if let Some(remote) = &self.remote {
+            remote.learn_names(entry);
+        }
+    }
+
     /// Keep in the local tier an entry found in the remote one (its blobs are already here).
     pub fn adopt(
         &self,
@@ -126,7 +133,8 @@ impl Tiered {
         let Some(remote) = self.remote.as_ref().filter(|r| r.uploads_allowed()) else {
             return Ok(());
         };
-        for blob in entry.outputs.values() {
+        let mut remote_entry = entry.clone();
+        for (name, blob) in &entry.outputs {
             let bytes = match self.local.read_blob(blob) {
                 Ok(bytes) => bytes,
                 Err(e) => {
@@ -135,11 +143,15 @@ impl Tiered {
                     return Ok(());
                 }
             };
-            if remote.keep_blob(blob, &bytes, observer).is_err() {
-                return Ok(());
+            match remote.keep_named_blob(blob, &bytes, observer) {
+                Ok(Some(remote_name)) => {
+                    remote_entry.remote_names.insert(name.clone(), remote_name);
+                }
+                Ok(None) => {}
+                Err(_) => return Ok(()),
             }
         }
-        let _ = remote.keep_action(key, entry, observer);
+        let _ = remote.keep_action(key, &remote_entry, observer);
         Ok(())
     }
 }

@@ -8,7 +8,8 @@ use std::sync::{Arc, Mutex};
 
 use ori_graph::{
     Build, Cache, ContentHash, Graph, Input, JobContext, JobSpec, Namespace, Observer, Outcome,
-    RemoteCache, RemoteError, RemoteMode, RemoteStore, RunOptions, Stage, StageError, run,
+    RemoteCache, RemoteDigest, RemoteError, RemoteMode, RemoteStore, RunOptions, Stage, StageError,
+    run,
 };
 use serde_json::json;
 
@@ -216,7 +217,71 @@ impl Fixture {
 }
 
 fn remote(store: impl RemoteStore + 'static, mode: RemoteMode) -> Arc<RemoteCache> {
-    Arc::new(RemoteCache::new(Box::new(store), mode))
+    Arc::new(RemoteCache::new(
+        Box::new(store),
+        mode,
+        RemoteDigest::Blake3,
+    ))
+}
+
+#[test]
+fn a_hit_downloads_only_the_outputs_no_later_job_reads_until_one_is_read() {
+    let fx = Fixture::new();
+    let memory = Arc::new(Memory::default());
+    let notes = Notes::default();
+    let writer = remote(Shared(memory.clone()), RemoteMode::ReadWrite);
+    let expected = fx.outputs(&fx.build(&fx.cache("one"), &writer, false, &notes));
+    fx.runs();
+
+    let reader = remote(Shared(memory.clone()), RemoteMode::ReadOnly);
+    let b = fx.build(&fx.cache("two"), &reader, false, &notes);
+    assert_eq!(fx.runs(), (0, 0));
+    // The second stage's outputs (read by no job) came down; the first's (read only by the
+    // second, a hit) did not.
+    assert_eq!(reader.stats().blobs_downloaded, 2);
+    assert_eq!(fx.outputs(&b), expected);
+    assert_eq!(reader.stats().blobs_downloaded, 4);
+    assert_eq!(notes.take(), Vec::<String>::new());
+}
+
+#[test]
+fn sha256_digests_name_every_blob_by_its_sha256_and_are_read_back() {
+    use sha2::Digest as _;
+    let fx = Fixture::new();
+    let memory = Arc::new(Memory::default());
+    let notes = Notes::default();
+    let sha256 = |store, mode| {
+        Arc::new(RemoteCache::new(
+            Box::new(store),
+            mode,
+            RemoteDigest::Sha256,
+        ))
+    };
+    let writer = sha256(Shared(memory.clone()), RemoteMode::ReadWrite);
+    let expected = fx.outputs(&fx.build(&fx.cache("one"), &writer, false, &notes));
+    fx.runs();
+    let objects = memory.objects.lock().unwrap().clone();
+    let blobs: Vec<_> = objects.iter().filter(|((ns, _), _)| *ns == "cas").collect();
+    assert_eq!(blobs.len(), 4);
+    for ((_, name), bytes) in blobs {
+        let digest: [u8; 32] = sha2::Sha256::digest(bytes).into();
+        assert_eq!(name.0, digest);
+    }
+
+    // An empty builder finds every output by its sha256 name, the lazily fetched ones too.
+    let reader = sha256(Shared(memory.clone()), RemoteMode::ReadOnly);
+    let b = fx.build(&fx.cache("two"), &reader, false, &notes);
+    assert_eq!(fx.runs(), (0, 0));
+    assert_eq!(fx.outputs(&b), expected);
+    assert_eq!(reader.stats().blobs_downloaded, 4);
+    assert_eq!(notes.take(), Vec::<String>::new());
+    // And in a later build, from the names kept with the local entries.
+    let later = sha256(Shared(memory.clone()), RemoteMode::ReadOnly);
+    let c = fx.build(&fx.cache("three"), &later, false, &notes);
+    drop(c);
+    let d = fx.build(&fx.cache("three"), &later, false, &notes);
+    assert_eq!(fx.outputs(&d), expected);
+    assert_eq!(fx.runs(), (0, 0));
 }
 
 #[test]
@@ -280,13 +345,19 @@ fn damaged_remote_bytes_are_a_miss_with_a_warning_and_are_repaired() {
     }
     let second = remote(Shared(memory.clone()), RemoteMode::ReadWrite);
     let b = fx.build(&fx.cache("two"), &second, false, &notes);
+    // The damaged output is read by the second job only, a hit: nothing fetched it yet.
+    assert_eq!((fx.runs(), notes.take().len()), ((0, 0), 0));
     assert_eq!(fx.outputs(&b), expected);
-    // Only the job whose output was damaged ran; its result has the same hash, so the next
-    // job's key is unchanged and it is reused.
+    // Reading it found the damage and ran the job that made it (the same bytes again), so
+    // the next job's key is unchanged and it stays reused.
     assert_eq!(fx.runs(), (1, 0));
     let warnings = notes.take();
-    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
     assert!(warnings[0].contains("is damaged"), "{warnings:?}");
+    assert!(
+        warnings[1].contains("re-running stage `first`"),
+        "{warnings:?}"
+    );
     assert_eq!(second.stats().corrupt, 1);
     // The rebuilt blob was uploaded again over the damaged copy.
     assert_eq!(

@@ -172,6 +172,10 @@ pub struct RemoteConfig {
     /// `"read-only"` (download only; the default) or `"read-write"` (also upload).
     #[serde(default)]
     pub mode: ori_graph::RemoteMode,
+    /// How blobs are named on the server: `"blake3"` (the default) or `"sha256"` (what
+    /// bazel-remote and REAPI servers check).
+    #[serde(default)]
+    pub digest: ori_graph::RemoteDigest,
 }
 
 fn default_timeout_s() -> f64 {
@@ -244,7 +248,11 @@ impl RemoteConfig {
             token.as_deref(),
             std::time::Duration::from_secs_f64(self.timeout_s),
         );
-        Ok(ori_graph::RemoteCache::new(Box::new(store), self.mode))
+        Ok(ori_graph::RemoteCache::new(
+            Box::new(store),
+            self.mode,
+            self.digest,
+        ))
     }
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use ori_graph::{RemoteCache, RemoteMode, RemoteStats, SourceHasher};
+use ori_graph::{RemoteCache, RemoteDigest, RemoteMode, RemoteStats, SourceHasher};
 use ori_release::{BuildReport, Release};
 use serde::Serialize;
 
@@ -52,6 +52,7 @@ pub struct WrittenRelease {
 pub struct RemoteSummary {
     pub url: String,
     pub mode: RemoteMode,
+    pub digest: RemoteDigest,
     /// The server failed during the build (the rest was built locally).
     pub unavailable: bool,
     pub stats: RemoteStats,
@@ -62,6 +63,7 @@ impl RemoteSummary {
         RemoteSummary {
             url: remote.describe(),
             mode: remote.mode(),
+            digest: remote.digest(),
             unavailable: remote.is_offline(),
             stats: remote.stats(),
         }
@@ -178,9 +180,11 @@ pub fn format_summary(s: &BuildSummary) -> String {
     if let Some(r) = &s.remote {
         let mb = |b: u64| b as f64 / 1e6;
         let st = &r.stats;
-        let mode = match r.mode {
-            RemoteMode::ReadOnly => "read-only",
-            RemoteMode::ReadWrite => "read-write",
+        let mode = match (r.mode, r.digest) {
+            (RemoteMode::ReadOnly, RemoteDigest::Blake3) => "read-only",
+            (RemoteMode::ReadWrite, RemoteDigest::Blake3) => "read-write",
+            (RemoteMode::ReadOnly, RemoteDigest::Sha256) => "read-only, sha256 names",
+            (RemoteMode::ReadWrite, RemoteDigest::Sha256) => "read-write, sha256 names",
         };
         out.push_str(&format!(
             "\nremote cache {} ({mode}): downloaded {} entries, {} blobs, {:.2} MB; uploaded {} entries, {} blobs, {:.2} MB",
