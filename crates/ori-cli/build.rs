@@ -12,22 +12,21 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
-    let hash = git(&["rev-parse", "HEAD"]);
-    if let (Some(hash), Some(git_dir)) = (&hash, git(&["rev-parse", "--absolute-git-dir"])) {
-        // A new commit or checkout moves HEAD or the branch it names (a loose ref, or
-        // packed-refs). Only paths that exist are named: a missing one reruns every build.
-        let git_dir = PathBuf::from(git_dir);
-        let mut watched = vec![git_dir.join("HEAD")];
-        if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-            watched.push(git_dir.join(branch));
-        }
-        watched.push(git_dir.join("packed-refs"));
-        for path in watched.iter().filter(|p| p.exists()) {
-            println!("cargo:rerun-if-changed={}", path.display());
-        }
-        println!("cargo:rustc-env=ORI_GIT_HASH={hash}");
-    } else {
+    let Some(hash) = git(&["rev-parse", "HEAD"]) else {
         println!("cargo:rerun-if-changed=build.rs");
         println!("cargo:rustc-env=ORI_GIT_HASH=unknown");
+        return;
+    };
+    // A commit or checkout moves HEAD or a branch: a loose ref (under refs/heads, watched as
+    // a folder, so a ref written there later counts) or packed-refs. `--git-path` finds them
+    // in a worktree too. Only paths that exist are named: a missing one reruns every build.
+    let watched = ["HEAD", "refs/heads", "packed-refs"]
+        .iter()
+        .filter_map(|path| git(&["rev-parse", "--path-format=absolute", "--git-path", path]))
+        .map(PathBuf::from)
+        .filter(|path| path.exists());
+    for path in watched {
+        println!("cargo:rerun-if-changed={}", path.display());
     }
+    println!("cargo:rustc-env=ORI_GIT_HASH={hash}");
 }

@@ -1,5 +1,5 @@
 //! `cargo xtask`: the pipeline's command line inside the repository: the user commands of
-//! `ori` (crates/ori-cli, which carries their code) under their xtask names, plus the
+//! `ori` (crates/ori-cli, which carries their code; `build` is also `build-assets`), plus the
 //! benchmarks and the conformance check, which need the checkout.
 
 mod bench;
@@ -12,7 +12,6 @@ mod nginx;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use ori_cli::{build, compare, compress, eval_table, preview};
 
 #[derive(Parser)]
 #[command(
@@ -24,48 +23,24 @@ struct Cli {
     command: Command,
 }
 
-/// The user commands of `ori` (under their xtask names) and the repository's own.
+/// The user commands of `ori` (`build` is also `build-assets`) and the repository's own.
 #[derive(Subcommand)]
 enum Command {
-    /// Build every asset found under the assets folder, reusing cached results.
-    BuildAssets(build::BuildArgs),
-    /// Write the release from the caches (local, then remote) without running any stage:
-    /// after `build-assets --shard K/N` on every shard.
-    Assemble(build::AssembleArgs),
+    #[command(flatten)]
+    User(ori_cli::Command),
     /// Run a benchmark and print its figures.
     Bench {
         #[command(subcommand)]
         which: bench::Bench,
     },
-    /// Bake every rival impostor technique and the ORI at one byte budget and compare them at
-    /// the held-out directions.
-    Compare(compare::Args),
-    /// Compress a PNG into a KTX2 texture (BC1 albedo, BC4, BC5 normals).
-    CompressTexture(compress::Args),
     /// Check the runtime's conformance data (docs/conformance) against the CPU evaluator.
     Conformance(conformance::Args),
-    /// Print the ORI paper's Table 1 for a model (1-4 closest and best:M selection).
-    EvalTable(eval_table::Args),
-    /// Draw a package with the wgpu runtime renderer beside its mesh and the difference.
-    Preview(preview::Args),
-    /// Write the HTML build report of an output folder again, without rebuilding.
-    Report(build::ReportArgs),
-    /// Check a release folder against its release.json: hashes, sizes, package validity.
-    Verify(build::VerifyArgs),
 }
 
 fn main() -> ExitCode {
-    let user = match Cli::parse().command {
-        Command::Bench { which } => return bench::run(which),
-        Command::Conformance(args) => return conformance::run(args),
-        Command::BuildAssets(args) => ori_cli::Command::Build(args),
-        Command::Assemble(args) => ori_cli::Command::Assemble(args),
-        Command::Compare(args) => ori_cli::Command::Compare(args),
-        Command::CompressTexture(args) => ori_cli::Command::CompressTexture(args),
-        Command::EvalTable(args) => ori_cli::Command::EvalTable(args),
-        Command::Preview(args) => ori_cli::Command::Preview(args),
-        Command::Report(args) => ori_cli::Command::Report(args),
-        Command::Verify(args) => ori_cli::Command::Verify(args),
-    };
-    user.run()
+    match Cli::parse().command {
+        Command::User(command) => command.run(),
+        Command::Bench { which } => bench::run(which),
+        Command::Conformance(args) => conformance::run(args),
+    }
 }

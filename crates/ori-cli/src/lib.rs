@@ -19,7 +19,7 @@ use clap::Subcommand;
 #[derive(Subcommand)]
 pub enum Command {
     /// Build every asset found under the assets folder, reusing cached results.
-    #[command(alias = "build-assets")]
+    #[command(visible_alias = "build-assets")]
     Build(build::BuildArgs),
     /// Write the release from the caches (local, then remote) without running any stage:
     /// after `build --shard K/N` on every shard.

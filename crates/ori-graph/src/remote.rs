@@ -215,15 +215,28 @@ impl RemoteCache {
     /// The server's name for `blob`: its blake3, or its sha256 (from `bytes` when given,
     /// else as learnt; `None` when unknown).
     fn cas_name(&self, blob: &BlobRef, bytes: Option<&[u8]>) -> Option<ContentHash> {
-        match (self.digest, bytes) {
-            (RemoteDigest::Blake3, _) => Some(blob.hash),
-            (RemoteDigest::Sha256, Some(bytes)) => Some(sha256(bytes)),
-            (RemoteDigest::Sha256, None) => self
-                .names
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .get(&blob.hash)
-                .copied(),
+        if self.digest == RemoteDigest::Blake3 {
+            return Some(blob.hash);
+        }
+        let mut names = self.names.lock().unwrap_or_else(|e| e.into_inner());
+        match bytes {
+            Some(bytes) => Some(*names.entry(blob.hash).or_insert_with(|| sha256(bytes))),
+            None => names.get(&blob.hash).copied(),
+        }
+    }
+
+    /// The server's name for the entry of job `key`: the key itself, or, with sha256 blob
+    /// names, a key derived from it, so builders of the two modes sharing a server never
+    /// take (or overwrite) each other's entries.
+    fn ac_name(&self, key: &ContentHash) -> ContentHash {
+        match self.digest {
+            RemoteDigest::Blake3 => *key,
+            RemoteDigest::Sha256 => {
+                let mut h = blake3::Hasher::new();
+                h.update(b"ori action entry with sha256 blob names\0");
+                h.update(&key.0);
+                ContentHash(*h.finalize().as_bytes())
+            }
         }
     }
 
@@ -345,7 +358,7 @@ impl RemoteCache {
     fn try_put_action(&self, key: &ContentHash, entry: &ActionEntry) -> Result<(), RemoteError> {
         let bytes = encode_checked_json(entry)
             .map_err(|e| RemoteError::Rejected(format!("cannot encode the entry: {e}")))?;
-        self.store.put(Namespace::Ac, key, &bytes)?;
+        self.store.put(Namespace::Ac, &self.ac_name(key), &bytes)?;
         self.counters.entries_up.fetch_add(1, Ordering::Relaxed);
         self.counters
             .bytes_up
@@ -365,7 +378,10 @@ impl ResultStore for RemoteCache {
         if self.is_offline() {
             return Lookup::Missing;
         }
-        let bytes = match self.store.get(Namespace::Ac, key, MAX_ENTRY_BYTES) {
+        let bytes = match self
+            .store
+            .get(Namespace::Ac, &self.ac_name(key), MAX_ENTRY_BYTES)
+        {
             Ok(Some(bytes)) => bytes,
             Ok(None) => return Lookup::Missing,
             Err(RemoteError::Invalid(why)) => {

@@ -119,39 +119,54 @@ impl Tiered {
         self.local.put_blob(bytes)
     }
 
-    /// Keep a job that ran: its entry in the local tier (its blobs are there already), then
-    /// its blobs (read from the local tier) and its entry in the remote one, so the server
-    /// never lists an entry whose blobs it lacks. Uploads are best effort: a failure is one
-    /// warning for the build and stops them; nothing is read when nothing is uploaded.
+    /// Keep a job that ran: its blobs (read from the local tier, where they are already) in
+    /// the remote one, its entry in the local tier, then its entry in the remote one, so the
+    /// server never lists an entry whose blobs it lacks. The entry kept in both carries the
+    /// remote names of the blobs uploaded. Uploads are best effort: a failure is one warning
+    /// for the build and stops them; nothing is read when nothing is uploaded.
     pub fn keep(
         &self,
         key: &ContentHash,
         entry: &ActionEntry,
         observer: &dyn Observer,
     ) -> Result<(), String> {
-        self.local.keep_action(key, entry, observer)?;
-        let Some(remote) = self.remote.as_ref().filter(|r| r.uploads_allowed()) else {
-            return Ok(());
+        let remote = self.remote.as_ref().filter(|r| r.uploads_allowed());
+        let mut entry = entry.clone();
+        let uploaded = match remote {
+            Some(remote) => self.upload_blobs(remote, &mut entry, observer),
+            None => false,
         };
-        let mut remote_entry = entry.clone();
+        self.local.keep_action(key, &entry, observer)?;
+        if let Some(remote) = remote.filter(|_| uploaded) {
+            let _ = remote.keep_action(key, &entry, observer);
+        }
+        Ok(())
+    }
+
+    /// Upload the entry's blobs, noting their remote names in it; whether all went up.
+    fn upload_blobs(
+        &self,
+        remote: &RemoteCache,
+        entry: &mut ActionEntry,
+        observer: &dyn Observer,
+    ) -> bool {
         for (name, blob) in &entry.outputs {
             let bytes = match self.local.read_blob(blob) {
                 Ok(bytes) => bytes,
                 Err(e) => {
                     let e = RemoteError::Rejected(format!("cannot read the local copy: {e}"));
                     remote.upload_failed(&e, observer);
-                    return Ok(());
+                    return false;
                 }
             };
             match remote.keep_named_blob(blob, &bytes, observer) {
                 Ok(Some(remote_name)) => {
-                    remote_entry.remote_names.insert(name.clone(), remote_name);
+                    entry.remote_names.insert(name.clone(), remote_name);
                 }
                 Ok(None) => {}
-                Err(_) => return Ok(()),
+                Err(_) => return false,
             }
         }
-        let _ = remote.keep_action(key, &remote_entry, observer);
-        Ok(())
+        true
     }
 }

@@ -275,13 +275,23 @@ fn sha256_digests_name_every_blob_by_its_sha256_and_are_read_back() {
     assert_eq!(fx.outputs(&b), expected);
     assert_eq!(reader.stats().blobs_downloaded, 4);
     assert_eq!(notes.take(), Vec::<String>::new());
-    // And in a later build, from the names kept with the local entries.
+    // And in a later build (a new client, knowing no names), from the names kept with the
+    // local entries.
+    let first = sha256(Shared(memory.clone()), RemoteMode::ReadOnly);
+    fx.build(&fx.cache("three"), &first, false, &notes);
+    assert_eq!(first.stats().blobs_downloaded, 2);
     let later = sha256(Shared(memory.clone()), RemoteMode::ReadOnly);
-    let c = fx.build(&fx.cache("three"), &later, false, &notes);
-    drop(c);
     let d = fx.build(&fx.cache("three"), &later, false, &notes);
+    assert_eq!(later.stats().entries_downloaded, 0);
     assert_eq!(fx.outputs(&d), expected);
+    assert_eq!(later.stats().blobs_downloaded, 2);
     assert_eq!(fx.runs(), (0, 0));
+    assert_eq!(notes.take(), Vec::<String>::new());
+    // A builder naming blobs by blake3 on the same server finds none of these entries.
+    let other = remote(Shared(memory.clone()), RemoteMode::ReadOnly);
+    fx.build(&fx.cache("four"), &other, false, &notes);
+    assert_eq!(other.stats().entries_downloaded, 0);
+    assert_eq!(fx.runs(), (2, 2));
 }
 
 #[test]

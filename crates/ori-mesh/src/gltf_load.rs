@@ -381,6 +381,9 @@ fn decode_meshopt_views(
     raw: &Value,
     buffers: &mut [Cow<'_, [u8]>],
 ) -> Result<(), ErrorKind> {
+    // Bytes read and written by the decoders over the whole model: views may share one range,
+    // so each view's cost is counted, not the buffers'.
+    let mut work = 0usize;
     for view in document.views() {
         let pointer = format!(
             "/bufferViews/{}/extensions/EXT_meshopt_compression",
@@ -419,14 +422,28 @@ fn decode_meshopt_views(
                 view.length()
             )));
         }
+        let target = view.buffer().index();
+        let range = view
+            .offset()
+            .checked_add(view.length())
+            .map(|end| view.offset()..end)
+            .filter(|range| buffers.get(target).is_some_and(|b| range.end <= b.len()))
+            .ok_or_else(|| bad(&format!("the view extends past the end of buffer {target}")))?;
+        work = work.saturating_add(view.length()).saturating_add(length);
+        if work > MAX_DECODED_BYTES {
+            return Err(bad(&format!(
+                "the compressed views decode more than {MAX_DECODED_BYTES} bytes"
+            )));
+        }
         let source = offset
             .checked_add(length)
             .and_then(|end| buffers.get(source_buffer)?.get(offset..end))
             .ok_or_else(|| bad("the compressed bytes lie outside their buffer"))?
             .to_vec();
-        let mut decoded = vec![0u8; view.length()];
+        // Words, so that the filters, which read 16- and 32-bit values, see aligned data.
+        let mut decoded = vec![0u32; view.length().div_ceil(4)];
         let (out, source_len) = (decoded.as_mut_ptr().cast(), source.len());
-        // SAFETY: `out` holds `count * stride` bytes and `source` is `source_len` bytes long;
+        // SAFETY: `out` holds at least `count * stride` bytes and `source` is `source_len` bytes long;
         // the decoders read and write nothing else, and every size they assert is checked.
         let status = match (mode.as_str(), filter.as_str()) {
             ("ATTRIBUTES", _) if stride % 4 == 0 && (4..=256).contains(&stride) => unsafe {
@@ -483,14 +500,9 @@ fn decode_meshopt_views(
                 )));
             }
         }
-        let target = view.buffer().index();
-        let range = view
-            .offset()
-            .checked_add(view.length())
-            .map(|end| view.offset()..end)
-            .filter(|range| buffers.get(target).is_some_and(|b| range.end <= b.len()))
-            .ok_or_else(|| bad(&format!("the view extends past the end of buffer {target}")))?;
-        buffers[target].to_mut()[range].copy_from_slice(&decoded);
+        // The words hold the bytes the decoders wrote, in memory order.
+        let decoded: Vec<u8> = decoded.iter().flat_map(|word| word.to_ne_bytes()).collect();
+        buffers[target].to_mut()[range].copy_from_slice(&decoded[..view.length()]);
     }
     Ok(())
 }
@@ -606,7 +618,10 @@ struct MaterialUse {
     uv_transform: Option<UvTransform>,
 }
 
-/// `KHR_texture_transform` on a texture reference: `uv' = offset + rotation(scale * uv)`.
+/// `KHR_texture_transform` on a texture reference: `uv' = offset + rotation(scale * uv)`, the
+/// rotation turning +u towards -v (counter-clockwise in glTF's v-down texture space), as the
+/// extension's sample model and the engines that render it do; the GLSL listing in the
+/// extension's text turns the other way (KhronosGroup/glTF#1563).
 #[derive(Clone, Copy)]
 struct UvTransform {
     offset: [f32; 2],
@@ -655,8 +670,8 @@ impl UvTransform {
         let (u, v) = (u * self.scale[0], v * self.scale[1]);
         let (sin, cos) = self.rotation.sin_cos();
         [
-            self.offset[0] + cos * u - sin * v,
-            self.offset[1] + sin * u + cos * v,
+            self.offset[0] + cos * u + sin * v,
+            self.offset[1] - sin * u + cos * v,
         ]
     }
 }
@@ -1227,5 +1242,37 @@ fn assemble(mode: Mode, corners: usize, corner: impl Fn(usize) -> u32) -> Vec<[u
             .map(|i| [corner(0), corner(i), corner(i + 1)])
             .collect(),
         Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texture_transforms_scale_then_rotate_then_offset() {
+        let json: Value = gltf::json::deserialize::from_str(
+            r#"{"offset": [0.5, 0.25], "rotation": 1.5707964, "scale": [2, 3], "texCoord": 1}"#,
+        )
+        .unwrap();
+        let (transform, set) = UvTransform::parse(&json).unwrap();
+        assert_eq!(set, Some(1));
+        // (1, 0) scaled to (2, 0), turned a quarter towards -v: (0, -2), then offset.
+        let [u, v] = transform.apply([1.0, 0.0]);
+        assert!(
+            (u - 0.5).abs() < 1e-6 && (v - -1.75).abs() < 1e-6,
+            "{u} {v}"
+        );
+        // (0, 1) scaled to (0, 3), turned to (3, 0).
+        let [u, v] = transform.apply([0.0, 1.0]);
+        assert!((u - 3.5).abs() < 1e-6 && (v - 0.25).abs() < 1e-6, "{u} {v}");
+        for bad in [
+            r#"{"scale": [1]}"#,
+            r#"{"rotation": "x"}"#,
+            r#"{"texCoord": -1}"#,
+        ] {
+            let json: Value = gltf::json::deserialize::from_str(bad).unwrap();
+            assert!(UvTransform::parse(&json).is_err(), "{bad}");
+        }
     }
 }

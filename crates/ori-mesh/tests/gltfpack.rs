@@ -283,6 +283,18 @@ fn damaged_meshopt_data_is_an_error_not_a_crash() {
             "{what}: {error:?}"
         );
     }
+    // A view that claims to be huge (its count and stride agreeing) is refused before any
+    // memory is set aside for it.
+    let mut huge = json.clone();
+    huge["bufferViews"][positions]["byteLength"] = (1u64 << 40).into();
+    huge.pointer_mut(&extension(positions)).unwrap()["count"] = (1u64 << 37).into();
+    let error = load_bytes(&with_json(&glb, &huge)).err();
+    assert!(
+        error
+            .as_deref()
+            .is_some_and(|e| e.contains("the view extends past the end of buffer 1")),
+        "{error:?}"
+    );
     let mut huge = json.clone();
     huge["buffers"][1]["byteLength"] = 1_000_000_000_000u64.into();
     let error = load_bytes(&with_json(&glb, &huge)).err();
