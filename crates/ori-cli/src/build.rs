@@ -9,8 +9,9 @@ use ori_pipeline::{BuildOptions, Mode, build_assets, format_summary};
 use crate::events;
 use crate::progress::{Progress, ProgressMode};
 
+/// The project a build works on: its configuration, the folders it may override, threads.
 #[derive(clap::Args)]
-pub struct BuildArgs {
+pub struct ProjectArgs {
     /// Pipeline configuration.
     #[arg(long, default_value = "pipeline.toml")]
     pub config: PathBuf,
@@ -26,6 +27,12 @@ pub struct BuildArgs {
     /// Worker threads (default: one per core).
     #[arg(short = 'j', long = "jobs", default_value_t = 0)]
     pub jobs: usize,
+}
+
+#[derive(clap::Args)]
+pub struct BuildArgs {
+    #[command(flatten)]
+    pub project: ProjectArgs,
     /// Say why each job that ran had to run.
     #[arg(long)]
     pub explain: bool,
@@ -76,21 +83,8 @@ pub enum Backend {
 
 #[derive(clap::Args)]
 pub struct AssembleArgs {
-    /// Pipeline configuration.
-    #[arg(long, default_value = "pipeline.toml")]
-    pub config: PathBuf,
-    /// Assets folder (default: `[assets] root` of the configuration).
-    #[arg(long)]
-    pub assets: Option<PathBuf>,
-    /// Output folder (default: `[output] dir`).
-    #[arg(long)]
-    pub out: Option<PathBuf>,
-    /// Cache folder (default: `[cache] dir`).
-    #[arg(long)]
-    pub cache: Option<PathBuf>,
-    /// Worker threads (default: one per core).
-    #[arg(short = 'j', long = "jobs", default_value_t = 0)]
-    pub jobs: usize,
+    #[command(flatten)]
+    pub project: ProjectArgs,
     /// Print only warnings, errors and the summary.
     #[arg(short, long)]
     pub quiet: bool,
@@ -135,11 +129,7 @@ pub fn build(args: BuildArgs) -> ExitCode {
 pub fn assemble(a: AssembleArgs) -> ExitCode {
     run(
         BuildArgs {
-            config: a.config,
-            assets: a.assets,
-            out: a.out,
-            cache: a.cache,
-            jobs: a.jobs,
+            project: a.project,
             explain: false,
             dry_run: false,
             quiet: a.quiet,
@@ -305,10 +295,10 @@ fn run_build(
     };
     let want_report = !(args.no_report || args.dry_run || args.shard.is_some());
     let (config_path, out_arg, assets_arg, cache_arg) = (
-        args.config.clone(),
-        args.out.clone(),
-        args.assets.clone(),
-        args.cache.clone(),
+        args.project.config.clone(),
+        args.project.out.clone(),
+        args.project.assets.clone(),
+        args.project.cache.clone(),
     );
     let gpu_select = match args.backend {
         Backend::Cpu => None,
@@ -329,11 +319,11 @@ fn run_build(
     };
     let options = BuildOptions {
         gpu_select,
-        config: args.config,
-        assets: args.assets,
-        out: args.out,
-        cache: args.cache,
-        threads: worker_threads(args.jobs),
+        config: args.project.config,
+        assets: args.project.assets,
+        out: args.project.out,
+        cache: args.project.cache,
+        threads: worker_threads(args.project.jobs),
         mode: match (assemble, args.shard) {
             (true, _) => Mode::Assemble,
             (false, Some(shard)) => Mode::Shard(shard),
