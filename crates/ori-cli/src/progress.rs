@@ -180,11 +180,7 @@ impl Observer for Progress {
     }
 
     fn note(&self, message: &str) {
-        if message.starts_with("warning:") || message.starts_with("error:") {
-            self.print_problem(message);
-        } else {
-            self.print(message);
-        }
+        self.print_problem(message);
     }
 
     fn asset_unchanged(&self, asset: &str, stages: &[String]) {

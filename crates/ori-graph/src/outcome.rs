@@ -96,7 +96,8 @@ pub trait Observer: Sync {
     fn run_finished(&self) {}
     fn job_started(&self, _job: &JobSpec) {}
     fn job_finished(&self, _job: &JobSpec, _result: &JobResult) {}
-    /// Something the user should see that belongs to no single job outcome.
+    /// A warning the user should see that belongs to no single job outcome (the message
+    /// starts with `warning: `).
     fn note(&self, _message: &str) {}
     /// The caller knew, without looking its jobs up, that `asset`'s results are those of an
     /// earlier build: its jobs (of these stages) count as reused and are in no graph.

@@ -212,16 +212,31 @@ impl RemoteCache {
         }
     }
 
-    /// The server's name for `blob`: its blake3, or its sha256 (from `bytes` when given,
-    /// else as learnt; `None` when unknown).
-    fn cas_name(&self, blob: &BlobRef, bytes: Option<&[u8]>) -> Option<ContentHash> {
-        if self.digest == RemoteDigest::Blake3 {
-            return Some(blob.hash);
+    /// The server's name for `blob`, whose bytes are `bytes`: its blake3, or its sha256
+    /// (remembered, for [`RemoteCache::known_name`]).
+    fn name_of(&self, blob: &BlobRef, bytes: &[u8]) -> ContentHash {
+        match self.digest {
+            RemoteDigest::Blake3 => blob.hash,
+            RemoteDigest::Sha256 => *self
+                .names
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .entry(blob.hash)
+                .or_insert_with(|| sha256(bytes)),
         }
-        let mut names = self.names.lock().unwrap_or_else(|e| e.into_inner());
-        match bytes {
-            Some(bytes) => Some(*names.entry(blob.hash).or_insert_with(|| sha256(bytes))),
-            None => names.get(&blob.hash).copied(),
+    }
+
+    /// The server's name for `blob` without its bytes: its blake3, or the sha256 learnt from
+    /// an entry or an upload (`None` when unknown).
+    fn known_name(&self, blob: &BlobRef) -> Option<ContentHash> {
+        match self.digest {
+            RemoteDigest::Blake3 => Some(blob.hash),
+            RemoteDigest::Sha256 => self
+                .names
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .get(&blob.hash)
+                .copied(),
         }
     }
 
@@ -251,7 +266,7 @@ impl RemoteCache {
         self.keep_blob(blob, bytes, observer)?;
         Ok(match self.digest {
             RemoteDigest::Blake3 => None,
-            RemoteDigest::Sha256 => self.cas_name(blob, Some(bytes)),
+            RemoteDigest::Sha256 => Some(self.name_of(blob, bytes)),
         })
     }
 
@@ -338,7 +353,7 @@ impl RemoteCache {
     }
 
     fn try_put_blob(&self, blob: &BlobRef, bytes: &[u8]) -> Result<(), RemoteError> {
-        let name = self.cas_name(blob, Some(bytes)).unwrap_or(blob.hash);
+        let name = self.name_of(blob, bytes);
         let damaged = self
             .damaged
             .lock()
@@ -412,7 +427,7 @@ impl ResultStore for RemoteCache {
         if self.is_offline() {
             return Lookup::Missing;
         }
-        let Some(name) = self.cas_name(blob, None) else {
+        let Some(name) = self.known_name(blob) else {
             return Lookup::Missing;
         };
         let bytes = match self.store.get(Namespace::Cas, &name, blob.size) {

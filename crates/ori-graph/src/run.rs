@@ -67,14 +67,6 @@ pub fn run<'g>(
     observer: &'g dyn Observer,
 ) -> Build<'g> {
     let mut dependents = vec![Vec::new(); graph.len()];
-    let mut read_later: Vec<HashSet<String>> = vec![HashSet::new(); graph.len()];
-    for job in &graph.jobs {
-        for (_, input) in &job.inputs {
-            if let Input::Output { job, name } = input {
-                read_later[job.0].insert(name.clone());
-            }
-        }
-    }
     let pending: Vec<AtomicUsize> = graph
         .jobs
         .iter()
@@ -106,7 +98,7 @@ pub fn run<'g>(
         results: (0..graph.len()).map(|_| OnceLock::new()).collect(),
         dry_run: options.dry_run,
         cached_only: options.cached_only,
-        fetch_lazily: options.remote.as_ref().map(|_| read_later),
+        fetch_lazily: options.remote.as_ref().map(|_| outputs_read_later(graph)),
         observer,
     };
     observer.run_started(graph);
@@ -210,6 +202,19 @@ struct Exec<'g> {
     /// again) when it runs, so a hit whose dependents are hits too moves no bytes.
     fetch_lazily: Option<Vec<HashSet<String>>>,
     observer: &'g dyn Observer,
+}
+
+/// Per job, the names of its outputs that later jobs of `graph` read.
+fn outputs_read_later(graph: &Graph) -> Vec<HashSet<String>> {
+    let mut read_later = vec![HashSet::new(); graph.len()];
+    for job in &graph.jobs {
+        for (_, input) in &job.inputs {
+            if let Input::Output { job, name } = input {
+                read_later[job.0].insert(name.clone());
+            }
+        }
+    }
+    read_later
 }
 
 /// The identity of "the same job" across builds: asset and stage.

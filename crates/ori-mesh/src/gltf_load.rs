@@ -501,8 +501,10 @@ fn decode_meshopt_views(
             }
         }
         // The words hold the bytes the decoders wrote, in memory order.
-        let decoded: Vec<u8> = decoded.iter().flat_map(|word| word.to_ne_bytes()).collect();
-        buffers[target].to_mut()[range].copy_from_slice(&decoded[..view.length()]);
+        let bytes = &mut buffers[target].to_mut()[range];
+        for (into, word) in bytes.chunks_mut(4).zip(&decoded) {
+            into.copy_from_slice(&word.to_ne_bytes()[..into.len()]);
+        }
     }
     Ok(())
 }

@@ -180,12 +180,15 @@ pub fn format_summary(s: &BuildSummary) -> String {
     if let Some(r) = &s.remote {
         let mb = |b: u64| b as f64 / 1e6;
         let st = &r.stats;
-        let mode = match (r.mode, r.digest) {
-            (RemoteMode::ReadOnly, RemoteDigest::Blake3) => "read-only",
-            (RemoteMode::ReadWrite, RemoteDigest::Blake3) => "read-write",
-            (RemoteMode::ReadOnly, RemoteDigest::Sha256) => "read-only, sha256 names",
-            (RemoteMode::ReadWrite, RemoteDigest::Sha256) => "read-write, sha256 names",
+        let access = match r.mode {
+            RemoteMode::ReadOnly => "read-only",
+            RemoteMode::ReadWrite => "read-write",
         };
+        let names = match r.digest {
+            RemoteDigest::Blake3 => "",
+            RemoteDigest::Sha256 => ", sha256 names",
+        };
+        let mode = format!("{access}{names}");
         out.push_str(&format!(
             "\nremote cache {} ({mode}): downloaded {} entries, {} blobs, {:.2} MB; uploaded {} entries, {} blobs, {:.2} MB",
             r.url,
