@@ -48,24 +48,6 @@ fn build_as(p: &Project, name: &str, extra: &[&str]) -> Output {
     p.build(&args)
 }
 
-/// The summary's remote-cache line.
-fn remote_line(out: &Output) -> String {
-    let t = text(out);
-    t.lines()
-        .find(|l| l.starts_with("remote cache "))
-        .unwrap_or_else(|| panic!("no remote cache line:\n{t}"))
-        .to_string()
-}
-
-/// Warning lines about the remote cache.
-fn remote_warnings(out: &Output) -> Vec<String> {
-    text(out)
-        .lines()
-        .filter(|l| l.starts_with("warning: remote cache"))
-        .map(String::from)
-        .collect()
-}
-
 /// Every file under `dir`, recursively.
 fn files(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
@@ -113,10 +95,7 @@ fn check_server_names(server: &Nginx, name_of: impl Fn(&[u8]) -> String) -> (usi
                 blobs += 1;
             }
             "ac" => {
-                let text = String::from_utf8(bytes).unwrap();
-                let (check, json) = text.split_once('\n').unwrap();
-                let json = json.strip_suffix('\n').unwrap();
-                assert_eq!(blake3::hash(json.as_bytes()).to_hex().as_str(), check);
+                check_entry(bytes, &format!("{path:?}"));
                 entries += 1;
             }
             other => panic!("unexpected file {path:?} in {other}"),

@@ -186,3 +186,34 @@ pub fn same_release(a: &BTreeMap<String, Vec<u8>>, b: &BTreeMap<String, Vec<u8>>
         assert!(v == &b[k], "{what}: {k} differs");
     }
 }
+
+/// The summary's remote-cache line.
+pub fn remote_line(out: &Output) -> String {
+    let t = text(out);
+    t.lines()
+        .find(|l| l.starts_with("remote cache "))
+        .unwrap_or_else(|| panic!("no remote cache line:\n{t}"))
+        .to_string()
+}
+
+/// Warning lines about the remote cache.
+pub fn remote_warnings(out: &Output) -> Vec<String> {
+    text(out)
+        .lines()
+        .filter(|l| l.starts_with("warning: remote cache"))
+        .map(String::from)
+        .collect()
+}
+
+/// An action entry as a remote cache holds it: a checksum line (blake3 of the JSON), then the
+/// JSON; panics naming `what` when the checksum does not hold.
+pub fn check_entry(bytes: Vec<u8>, what: &str) {
+    let text = String::from_utf8(bytes).unwrap();
+    let (check, json) = text.split_once('\n').unwrap();
+    let json = json.strip_suffix('\n').unwrap();
+    assert_eq!(
+        blake3::hash(json.as_bytes()).to_hex().as_str(),
+        check,
+        "{what}"
+    );
+}

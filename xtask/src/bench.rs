@@ -45,9 +45,9 @@ pub enum Bench {
     /// A cold build of every model in ../shared/models, then the rebuild after one model's
     /// geometry is edited, against that model's own cold build.
     Release,
-    /// A cold build of ../shared/models filling a remote cache (a local nginx), then a build
-    /// and an `assemble` from empty local caches taking everything from it: times and bytes
-    /// moved.
+    /// A cold build of ../shared/models filling a remote cache (a local nginx, or a local
+    /// S3-compatible server), then a build and an `assemble` from empty local caches taking
+    /// everything from it: times and bytes moved.
     Remote {
         /// Also time a cold build without the remote cache.
         #[arg(long)]
@@ -58,6 +58,9 @@ pub enum Bench {
         /// How the server names blobs: `blake3` or `sha256` (bazel-remote compatible).
         #[arg(long, default_value = "blake3")]
         digest: String,
+        /// The server: `http` (nginx WebDAV) or `s3` (moto, from target/test-venv).
+        #[arg(long, value_enum, default_value_t = crate::bench_remote::Store::Http)]
+        store: crate::bench_remote::Store,
     },
     /// A cold build of one model at a time, models of growing size: the build's seconds, each
     /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
@@ -113,7 +116,13 @@ pub fn run(which: Bench) -> ExitCode {
             baseline,
             models,
             digest,
-        } => crate::bench_remote::run(baseline, &models.unwrap_or_else(shared_models), &digest),
+            store,
+        } => crate::bench_remote::run(
+            baseline,
+            &models.unwrap_or_else(shared_models),
+            &digest,
+            store,
+        ),
         Bench::Scale { runs, models } => crate::bench_scale::run(runs, &models),
         Bench::Catalogue {
             assets,

@@ -1,37 +1,84 @@
 //! `cargo xtask bench remote`: a cold build of ../shared/models that fills a remote cache (a
-//! local nginx WebDAV server), then a build and an `assemble` of the same models, each from an
-//! empty local cache, that take everything from it; times and the bytes the client moved.
+//! local nginx WebDAV server, or a local S3-compatible server with `--store s3`), then a build
+//! and an `assemble` of the same models, each from an empty local cache, that take everything
+//! from it; times and the bytes the client moved.
 
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
 use crate::bench::copy_tree;
+use crate::moto::Moto;
 use crate::nginx::Nginx;
 
+/// Which server the benchmark fills.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum Store {
+    /// nginx WebDAV.
+    Http,
+    /// An S3 bucket (moto).
+    S3,
+}
+
+/// The server the benchmark fills.
+enum Server {
+    Http(Nginx),
+    S3(Moto),
+}
+
+impl Server {
+    fn start(store: Store) -> Result<Server, String> {
+        Ok(match store {
+            Store::Http => Server::Http(Nginx::start()?),
+            Store::S3 => Server::S3(Moto::start()?),
+        })
+    }
+
+    fn url(&self) -> String {
+        match self {
+            Server::Http(nginx) => nginx.url("cache"),
+            Server::S3(moto) => moto.url("cache"),
+        }
+    }
+
+    /// What a builder needs in its environment to reach the server.
+    fn env(&self, command: &mut Command) {
+        if let Server::S3(moto) = self {
+            moto.env(command);
+        }
+    }
+}
+
 /// One build: its wall time and its output (summary included).
-fn build(config: &Path, cache: &Path, out: &Path) -> Result<(Duration, String), String> {
-    run_command("build-assets", config, cache, out)
+fn build(
+    server: &Server,
+    config: &Path,
+    cache: &Path,
+    out: &Path,
+) -> Result<(Duration, String), String> {
+    run_command(server, "build-assets", config, cache, out)
 }
 
 /// `command` (`build-assets` or `assemble`) on `config`: its wall time and its output.
 fn run_command(
+    server: &Server,
     command: &str,
     config: &Path,
     cache: &Path,
     out: &Path,
 ) -> Result<(Duration, String), String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let start = Instant::now();
-    let output = Command::new(exe)
+    let mut child = Command::new(exe);
+    child
         .args([command, "--quiet", "--no-report", "--config"])
         .arg(config)
         .arg("--cache")
         .arg(cache)
         .arg("--out")
-        .arg(out)
-        .output()
-        .map_err(|e| e.to_string())?;
+        .arg(out);
+    server.env(&mut child);
+    let start = Instant::now();
+    let output = child.output().map_err(|e| e.to_string())?;
     let elapsed = start.elapsed();
     let text = format!(
         "{}{}",
@@ -101,8 +148,8 @@ fn by_stage(cache: &Path) -> Result<String, String> {
 }
 
 /// `baseline`: also time a cold build without the remote cache (the cost of uploading).
-pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
-    let server = Nginx::start()?;
+pub fn run(baseline: bool, models: &Path, digest: &str, store: Store) -> Result<(), String> {
+    let server = Server::start(store)?;
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
     copy_tree(models, &dir.path().join("assets"))?;
     let with_remote = dir.path().join("remote.toml");
@@ -113,7 +160,7 @@ pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
         &with_remote,
         format!(
             "{assets}[cache.remote]\nurl = \"{}\"\nmode = \"read-write\"\ntimeout_s = 60\ndigest = \"{digest}\"\n",
-            server.url("cache")
+            server.url()
         ),
     )
     .map_err(|e| e.to_string())?;
@@ -121,21 +168,21 @@ pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
     let p = |name: &str| dir.path().join(name);
 
     if baseline {
-        let (t, _) = build(&plain, &p("cache-plain"), &p("out-plain"))?;
+        let (t, _) = build(&server, &plain, &p("cache-plain"), &p("out-plain"))?;
         println!(
             "cold build of {} without a remote cache: {:.2} s",
             models.display(),
             t.as_secs_f64()
         );
     }
-    let (cold, text) = build(&with_remote, &p("cache-a"), &p("out-a"))?;
+    let (cold, text) = build(&server, &with_remote, &p("cache-a"), &p("out-a"))?;
     println!(
         "cold build, filling the remote cache:           {:.2} s ({} jobs ran)\n  {}",
         cold.as_secs_f64(),
         jobs_ran(&text),
         line(&text, "remote cache")?
     );
-    let (warm, text) = build(&with_remote, &p("cache-b"), &p("out-b"))?;
+    let (warm, text) = build(&server, &with_remote, &p("cache-b"), &p("out-b"))?;
     let ran = jobs_ran(&text);
     println!(
         "build from an empty local cache (all remote):   {:.2} s ({ran} jobs ran)\n  {}",
@@ -146,12 +193,18 @@ pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
         return Err(format!("the build from the remote cache ran {ran} jobs"));
     }
     println!("  output bytes held by stage: {}", by_stage(&p("cache-b"))?);
-    let (noop, _) = build(&with_remote, &p("cache-b"), &p("out-b"))?;
+    let (noop, _) = build(&server, &with_remote, &p("cache-b"), &p("out-b"))?;
     println!(
         "then a no-op rebuild (local cache, no request): {:.2} s",
         noop.as_secs_f64()
     );
-    let (assemble, text) = run_command("assemble", &with_remote, &p("cache-c"), &p("out-c"))?;
+    let (assemble, text) = run_command(
+        &server,
+        "assemble",
+        &with_remote,
+        &p("cache-c"),
+        &p("out-c"),
+    )?;
     let packages: u64 = walkdir::WalkDir::new(p("out-c"))
         .into_iter()
         .filter_map(Result::ok)
@@ -169,7 +222,11 @@ pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
         return Err("the releases differ".into());
     }
     ori_pipeline::release::verify(&p("out-b")).map_err(|e| e.join("\n"))?;
-    let stored: Vec<u64> = walkdir::WalkDir::new(server.root())
+    let Server::Http(nginx) = &server else {
+        println!("releases identical");
+        return Ok(());
+    };
+    let stored: Vec<u64> = walkdir::WalkDir::new(nginx.root())
         .into_iter()
         .filter_map(Result::ok)
         .filter(|e| e.file_type().is_file())
@@ -179,7 +236,7 @@ pub fn run(baseline: bool, models: &Path, digest: &str) -> Result<(), String> {
         "releases identical; the server holds {} files, {:.2} MB ({} requests served)",
         stored.len(),
         stored.iter().sum::<u64>() as f64 / 1e6,
-        server.access_log().lines().count()
+        nginx.access_log().lines().count()
     );
     Ok(())
 }

@@ -7,6 +7,7 @@ mod bench_catalogue;
 mod bench_remote;
 mod bench_scale;
 mod conformance;
+mod moto;
 mod nginx;
 
 use std::process::ExitCode;

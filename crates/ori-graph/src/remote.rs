@@ -11,7 +11,8 @@
 //! its action-cache validation off).
 //!
 //! The graph talks to a [`RemoteStore`] (trait object), so tests can use an in-memory store;
-//! the HTTP one lives in the `ori-http-store` crate, so this crate needs no HTTP client. [`RemoteCache`] adds the policy: everything downloaded is
+//! the HTTP one lives in the `ori-http-store` crate and the object-store one (S3, GCS, Azure,
+//! a folder; the same layout) in `ori-object-store`, so this crate needs no network client. [`RemoteCache`] adds the policy: everything downloaded is
 //! verified before use (blobs against their hash, entries against their checksum), wrong bytes
 //! are a miss with a warning; the first time the server is unreachable, slow or failing, one
 //! warning is printed and it is not asked again during this build; uploads are best effort.

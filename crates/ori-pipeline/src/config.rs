@@ -160,7 +160,10 @@ impl Default for CacheConfig {
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RemoteConfig {
-    /// `http://host[:port][/path]`.
+    /// `http://host[:port][/path]` (the HTTP cache protocol), or an object store:
+    /// `s3://bucket[/prefix]`, `gs://bucket[/prefix]`, `az://container[/prefix]`,
+    /// `file:///path` (settings and credentials from the environment, see
+    /// `ori_object_store`).
     pub url: String,
     /// The environment variable holding a bearer token, if the server wants one.
     #[serde(default)]
@@ -187,13 +190,24 @@ impl RemoteConfig {
     fn validate(&self) -> Result<(), String> {
         let url = &self.url;
         let bad = |why: &str| Err(format!("[cache.remote] url = {url:?}: {why}"));
+        if ori_object_store::is_object_store_url(url) {
+            if let Some(name) = &self.token_env {
+                return Err(format!(
+                    "[cache.remote] token_env = {name:?}: only for http:// servers (object stores take their credentials from the environment)"
+                ));
+            }
+            ori_object_store::check_url(url).map_err(|e| format!("[cache.remote] url: {e}"))?;
+            return self.validate_timeout();
+        }
         let Some(rest) = url.strip_prefix("http://") else {
             return if url.starts_with("https://") {
                 bad(
                     "https is not supported (this client speaks plain HTTP; terminate TLS in a local proxy)",
                 )
             } else {
-                bad("expected http://host[:port][/path]")
+                bad(
+                    "expected http://host[:port][/path], s3://bucket[/prefix], gs://bucket[/prefix], az://container[/prefix] or file:///path",
+                )
             };
         };
         let host_port = rest.split('/').next().unwrap_or("");
@@ -217,6 +231,10 @@ impl RemoteConfig {
                 "[cache.remote] token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
             ));
         }
+        self.validate_timeout()
+    }
+
+    fn validate_timeout(&self) -> Result<(), String> {
         if !(self.timeout_s > 0.0 && self.timeout_s <= 3600.0) {
             return Err(format!(
                 "[cache.remote] timeout_s = {}: expected more than 0 and at most 3600 seconds",
@@ -240,19 +258,24 @@ impl RemoteConfig {
         }
     }
 
-    /// The remote cache this configures (reads the token).
+    /// The remote cache this configures (reads the token, or the object store's settings).
     pub fn open(&self) -> Result<ori_graph::RemoteCache, String> {
-        let token = self.token()?;
-        let store = ori_http_store::HttpStore::new(
-            &self.url,
-            token.as_deref(),
-            std::time::Duration::from_secs_f64(self.timeout_s),
-        );
-        Ok(ori_graph::RemoteCache::new(
-            Box::new(store),
-            self.mode,
-            self.digest,
-        ))
+        let timeout = std::time::Duration::from_secs_f64(self.timeout_s);
+        let store: Box<dyn ori_graph::RemoteStore> =
+            if ori_object_store::is_object_store_url(&self.url) {
+                Box::new(
+                    ori_object_store::ObjectStoreRemote::open(&self.url, timeout)
+                        .map_err(|e| format!("[cache.remote] url: {e}"))?,
+                )
+            } else {
+                let token = self.token()?;
+                Box::new(ori_http_store::HttpStore::new(
+                    &self.url,
+                    token.as_deref(),
+                    timeout,
+                ))
+            };
+        Ok(ori_graph::RemoteCache::new(store, self.mode, self.digest))
     }
 }
 
