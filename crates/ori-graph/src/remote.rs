@@ -142,6 +142,9 @@ struct Counters {
 
 /// The most bytes accepted for an action entry (they are a few hundred bytes).
 const MAX_ENTRY_BYTES: u64 = 16 << 20;
+/// The most bytes a remote entry may say one output has: a forged size must not make a
+/// download (and its buffer) unbounded. Results are textures and meshes, far below this.
+const MAX_REMOTE_BLOB_BYTES: u64 = 4 << 30;
 /// Blobs at least this large are checked with `HEAD` before upload; smaller ones are sent.
 const HEAD_BEFORE_PUT: u64 = 64 << 10;
 
@@ -414,7 +417,20 @@ impl ResultStore for RemoteCache {
         self.counters
             .bytes_down
             .fetch_add(bytes.len() as u64, Ordering::Relaxed);
-        match decode_checked_json(&bytes) {
+        let entry = decode_checked_json::<ActionEntry>(&bytes).and_then(|entry| {
+            match entry
+                .outputs
+                .iter()
+                .find(|(_, blob)| blob.size > MAX_REMOTE_BLOB_BYTES)
+            {
+                Some((name, blob)) => Err(format!(
+                    "output `{name}` claims {} bytes, more than the {MAX_REMOTE_BLOB_BYTES} a result may have",
+                    blob.size
+                )),
+                None => Ok(entry),
+            }
+        });
+        match entry {
             Ok(entry) => Lookup::Found(entry),
             Err(why) => {
                 let what = format!("action entry {} is damaged ({why})", key.short());

@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 use std::fs;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 use ori_graph::{
@@ -48,6 +48,8 @@ type Objects = HashMap<(&'static str, ContentHash), Vec<u8>>;
 struct Memory {
     objects: Mutex<Objects>,
     puts: AtomicUsize,
+    /// The largest `limit` a download was asked with.
+    largest_limit: AtomicU64,
 }
 
 /// A handle on a shared [`Memory`] (the test keeps one to look inside).
@@ -61,8 +63,9 @@ impl RemoteStore for Shared {
         &self,
         ns: Namespace,
         hash: &ContentHash,
-        _limit: u64,
+        limit: u64,
     ) -> Result<Option<Vec<u8>>, RemoteError> {
+        self.0.largest_limit.fetch_max(limit, Ordering::SeqCst);
         Ok(self
             .0
             .objects
@@ -397,6 +400,52 @@ fn damaged_remote_bytes_are_a_miss_with_a_warning_and_are_repaired() {
     assert_eq!(fx.runs(), (2, 2));
     assert_eq!(notes.take().len(), 4);
     assert_eq!(third.stats().corrupt, 4);
+}
+
+/// An entry that claims a huge output (its checksum made to hold, as a hostile server can) is
+/// a damaged entry: the job runs here, and nothing that size is downloaded.
+#[test]
+fn an_entry_claiming_a_huge_output_is_damaged_and_never_downloaded() {
+    let fx = Fixture::new();
+    let memory = Arc::new(Memory::default());
+    let notes = Notes::default();
+    let b = fx.build(
+        &fx.cache("one"),
+        &remote(Shared(memory.clone()), RemoteMode::ReadWrite),
+        false,
+        &notes,
+    );
+    let expected = fx.outputs(&b);
+    fx.runs();
+    for entry in memory
+        .objects
+        .lock()
+        .unwrap()
+        .iter_mut()
+        .filter(|((ns, _), _)| *ns == "ac")
+        .map(|(_, bytes)| bytes)
+    {
+        let text = String::from_utf8(entry.clone()).unwrap();
+        let (_, json) = text.split_once('\n').unwrap();
+        let mut value: serde_json::Value = serde_json::from_str(json).unwrap();
+        value["outputs"]["out"]["size"] = json!(1u64 << 40);
+        let json = serde_json::to_string(&value).unwrap();
+        *entry = format!("{}\n{json}\n", blake3::hash(json.as_bytes()).to_hex()).into_bytes();
+    }
+    memory.largest_limit.store(0, Ordering::SeqCst);
+    let second = remote(Shared(memory.clone()), RemoteMode::ReadOnly);
+    let b = fx.build(&fx.cache("two"), &second, false, &notes);
+    assert_eq!(fx.outputs(&b), expected);
+    assert_eq!(fx.runs(), (2, 2));
+    let warnings = notes.take();
+    assert_eq!(warnings.len(), 4, "{warnings:?}");
+    assert!(
+        warnings
+            .iter()
+            .all(|w| w.contains("claims 1099511627776 bytes")),
+        "{warnings:?}"
+    );
+    assert!(memory.largest_limit.load(Ordering::SeqCst) <= 16 << 20);
 }
 
 #[test]
