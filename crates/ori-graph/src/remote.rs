@@ -59,6 +59,13 @@ pub enum RemoteError {
     Invalid(String),
 }
 
+impl RemoteError {
+    /// An answer longer than the `limit` bytes the caller accepts.
+    pub fn longer_than(limit: u64) -> RemoteError {
+        RemoteError::Invalid(format!("more than the expected {limit} bytes"))
+    }
+}
+
 impl fmt::Display for RemoteError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {

@@ -105,13 +105,9 @@ impl RemoteStore for HttpStore {
             .limit(limit.saturating_add(1))
             .read_to_vec()
         {
-            Ok(bytes) if bytes.len() as u64 > limit => Err(RemoteError::Invalid(format!(
-                "more than the expected {limit} bytes"
-            ))),
+            Ok(bytes) if bytes.len() as u64 > limit => Err(RemoteError::longer_than(limit)),
             Ok(bytes) => Ok(Some(bytes)),
-            Err(ureq::Error::BodyExceedsLimit(_)) => Err(RemoteError::Invalid(format!(
-                "more than the expected {limit} bytes"
-            ))),
+            Err(ureq::Error::BodyExceedsLimit(_)) => Err(RemoteError::longer_than(limit)),
             Err(e) => Err(self.transport(&url, e)),
         }
     }

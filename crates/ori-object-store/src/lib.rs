@@ -372,11 +372,10 @@ impl RemoteStore for ObjectStoreRemote {
         limit: u64,
     ) -> Result<Option<Vec<u8>>, RemoteError> {
         let location = self.location(ns, hash);
-        let too_long = || RemoteError::Invalid(format!("more than the expected {limit} bytes"));
         let read = async {
             let result = self.store.get(&location).await?;
             if result.meta.size > limit {
-                return Ok(Err(too_long()));
+                return Ok(Err(RemoteError::longer_than(limit)));
             }
             // Read as it streams, never more than the limit, whatever the store claimed.
             let mut bytes = Vec::with_capacity(result.meta.size.min(MAX_RESERVE) as usize);
@@ -384,7 +383,7 @@ impl RemoteStore for ObjectStoreRemote {
             while let Some(chunk) = stream.next().await {
                 let chunk = chunk?;
                 if (bytes.len() + chunk.len()) as u64 > limit {
-                    return Ok(Err(too_long()));
+                    return Ok(Err(RemoteError::longer_than(limit)));
                 }
                 bytes.extend_from_slice(&chunk);
             }
