@@ -29,6 +29,10 @@ pub struct Args {
     /// Output PNG.
     #[arg(long)]
     out: PathBuf,
+    /// Colour of the pixels nothing covers in the ORI and mesh pictures, as hex `RRGGBB`
+    /// (pick one the model does not use to tell them apart from white surfaces).
+    #[arg(long, default_value = "ffffff", value_name = "RRGGBB", value_parser = parse_colour)]
+    background: [u8; 3],
     /// Pipeline configuration (its assets folder holds the source model).
     #[arg(long, default_value = "pipeline.toml")]
     config: PathBuf,
@@ -53,6 +57,15 @@ pub fn run(args: Args) -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+fn parse_colour(text: &str) -> Result<[u8; 3], String> {
+    let bad = || format!("{text:?} is not a colour as hex RRGGBB, e.g. ff00ff");
+    if text.len() != 6 || !text.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(bad());
+    }
+    let byte = |k: usize| u8::from_str_radix(&text[2 * k..2 * k + 2], 16).map_err(|_| bad());
+    Ok([byte(0)?, byte(1)?, byte(2)?])
 }
 
 fn directions(args: &Args) -> Result<Vec<[f64; 3]>, String> {
@@ -224,7 +237,14 @@ fn preview(args: &Args, directions: &[[f64; 3]]) -> Result<(), String> {
     let stride = (3 * size * columns) as usize;
     for (row, (camera, label)) in cameras.iter().enumerate() {
         let (draws, what) = scene.draws(camera, size)?;
-        let (images, line) = row_images(&renderer, &draws, mesh.as_ref(), camera, size)?;
+        let (images, line) = row_images(
+            &renderer,
+            &draws,
+            mesh.as_ref(),
+            camera,
+            size,
+            args.background,
+        )?;
         println!("{label}: {what}; {line}");
         for (col, rgb) in images.iter().enumerate() {
             for y in 0..size as usize {
@@ -296,18 +316,25 @@ fn row_images(
     mesh: Option<&GpuMesh>,
     camera: &Camera,
     size: u32,
+    background: [u8; 3],
 ) -> Result<(Vec<Vec<u8>>, String), String> {
     let drawn = renderer
         .render(draws, camera, size, size)
         .map_err(|e| e.to_string())?;
-    let on_white = |img: &Image| -> Vec<u8> {
+    let on_background = |img: &Image| -> Vec<u8> {
         (0..img.len())
-            .flat_map(|i| if img.covered(i) { img.rgb(i) } else { [255; 3] })
+            .flat_map(|i| {
+                if img.covered(i) {
+                    img.rgb(i)
+                } else {
+                    background
+                }
+            })
             .collect()
     };
     let Some(mesh) = mesh else {
         let line = format!("{} px drawn", drawn.coverage_count());
-        return Ok((vec![on_white(&drawn)], line));
+        return Ok((vec![on_background(&drawn)], line));
     };
     let reference = renderer
         .render_mesh(mesh, camera, size, size)
@@ -336,7 +363,7 @@ fn row_images(
         drawn.coverage_count()
     );
     Ok((
-        vec![on_white(&drawn), on_white(&reference), difference],
+        vec![on_background(&drawn), on_background(&reference), difference],
         line,
     ))
 }

@@ -7,6 +7,18 @@ use rayon::prelude::*;
 
 use crate::{AssetSummary, ReportSummary, count_colour, error_colour};
 
+/// `name` percent-encoded for a URL fragment (what JavaScript's `decodeURIComponent` reads).
+fn url_fragment(name: &str) -> String {
+    name.bytes()
+        .map(|b| match b {
+            b'a'..=b'z' | b'A'..=b'Z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' | b'/' => {
+                char::from(b).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -378,6 +390,15 @@ fn img(h: &mut String, a: &AssetSummary, role: &str, alt: &str) {
 
 fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
     let _ = writeln!(h, "<h2 id=\"asset{i}\">{}</h2>", esc(&a.name));
+    if a.package.is_some() {
+        let _ = writeln!(
+            h,
+            "<p><a href=\"{}#{}\">Open in the interactive viewer</a> (orbit, zoom, the \
+             reference mesh and the difference, drawn from the package in your browser)</p>",
+            crate::VIEWER,
+            url_fragment(&a.name)
+        );
+    }
     if let Some(e) = &a.error {
         let _ = writeln!(h, "<p class=\"error\">{}</p>", esc(e));
     }

@@ -18,6 +18,7 @@
 mod html;
 mod pictures;
 mod relief;
+mod viewer;
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -30,6 +31,7 @@ use serde::{Deserialize, Serialize};
 
 pub use pictures::{Picture, count_colour, error_colour};
 pub use relief::relief_set;
+pub use viewer::{MESH_FILE, VIEWER, mesh_bytes};
 
 /// How the report reads source models: under the same rules as the build (inside the asset
 /// root, regular files, size and texture limits).
@@ -124,8 +126,8 @@ const PICTURE_SIZE: u32 = 256;
 /// Version of every picture's drawing, the evaluator's rendering rule included: bump it when
 /// either changes, so that the pictures kept from an older report are drawn again. (3: the
 /// reference mesh culls the back faces of single-sided materials; 4: the hierarchy note gives
-/// the size up to which no leaf mesh is drawn.)
-pub const PICTURES_VERSION: u32 = 4;
+/// the size up to which no leaf mesh is drawn; 5: the viewer's mesh file beside them.)
+pub const PICTURES_VERSION: u32 = 5;
 
 /// What [`pictures_of`] adds to an asset's summary, kept beside its pictures with the stamp
 /// of what they were drawn from.
@@ -293,6 +295,7 @@ pub fn write_report_of(
         .collect();
     write_file(&dir.join("report.json"), &summary_json(&rows))?;
     write_pages(&dir, &summary, &rows)?;
+    write_viewer(&dir, &summary)?;
     Ok(Written {
         index: dir.join(html::INDEX),
         invalid_packages,
@@ -414,6 +417,31 @@ fn write_pages(dir: &Path, summary: &ReportSummary, rows: &[Vec<u8>]) -> Result<
     // A memo that cannot be written costs only making every page again next time.
     let _ = ori_graph::write_atomic(&memo_path, &json);
     Ok(())
+}
+
+/// `viewer.html` listing every asset with a package (written only when it changed).
+fn write_viewer(dir: &Path, summary: &ReportSummary) -> Result<(), String> {
+    let assets: Vec<viewer::ViewerAsset> = summary
+        .assets
+        .iter()
+        .filter_map(|a| {
+            let package = a.package.as_ref()?;
+            let folder = picture_folder(&a.name);
+            Some(viewer::ViewerAsset {
+                name: a.name.clone(),
+                package: format!("../{package}"),
+                mesh: viewer::has_mesh(&dir.join(&folder))
+                    .then(|| format!("{folder}/{}", viewer::MESH_FILE)),
+            })
+        })
+        .collect();
+    let page = viewer::page(&assets);
+    let path = dir.join(viewer::VIEWER);
+    if std::fs::read(&path).is_ok_and(|old| old == page.as_bytes()) {
+        return Ok(());
+    }
+    ori_graph::write_atomic(&path, page.as_bytes())
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))
 }
 
 /// Remove the asset pages beyond the `count` pages this report has (from a larger build).
@@ -655,6 +683,7 @@ fn pictures_of(
     let mesh = access
         .load(&source)
         .map_err(|e| format!("no reference pictures: {e}"))?;
+    write_file(&folder.join(MESH_FILE), &mesh_bytes(&mesh))?;
     let recorded = m.recorded_march();
     let d = EvalParams::default();
     let params = EvalParams {

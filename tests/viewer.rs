@@ -1,0 +1,463 @@
+//! The report's interactive viewer (`report/viewer.html`: WebGL2, its own package reader and
+//! runtime written from docs/FORMAT.md and docs/RUNTIME.md), opened in headless Chromium with
+//! SwiftShader: it draws what `cargo xtask preview` (wgpu, the software Vulkan driver) draws,
+//! reads the same packages as the Rust reader and refuses the same damaged ones, shows a
+//! damaged package's error in the page, and orbits a large package quickly.
+
+mod common;
+
+use std::fs;
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+use common::*;
+use serde_json::Value;
+
+/// Headless Chromium with SwiftShader's WebGL2, reading files beside the page, the page's
+/// DOM printed once its timers and loads have settled (virtual time).
+fn chromium_dom(user_dir: &Path, page: &Path, query_and_fragment: &str) -> String {
+    let out = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--allow-file-access-from-files",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--virtual-time-budget=120000",
+            "--dump-dom",
+        ])
+        .arg(format!("--user-data-dir={}", user_dir.display()))
+        .arg(format!("file://{}{query_and_fragment}", page.display()))
+        .output()
+        .expect("chromium must be installed (Debian package `chromium`; .ci/run installs it)");
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// The JSON the page's test hook wrote into its `test-result` element.
+fn test_result(dom: &str) -> Value {
+    let start = r#"<pre id="test-result">"#;
+    let at = dom
+        .rfind(start)
+        .unwrap_or_else(|| panic!("no test result in the page:\n{}", tail(dom)))
+        + start.len();
+    let end = at + dom[at..].find("</pre>").expect("the element ends");
+    let text = dom[at..end]
+        .replace("&lt;", "<")
+        .replace("&gt;", ">")
+        .replace("&quot;", "\"")
+        .replace("&amp;", "&");
+    let value: Value = serde_json::from_str(&text).unwrap();
+    assert!(value.get("failed").is_none(), "the page failed: {value}");
+    assert_eq!(value["errors"], serde_json::json!([]), "script errors");
+    value
+}
+
+fn tail(s: &str) -> &str {
+    &s[s.len().saturating_sub(2000)..]
+}
+
+fn base64(text: &str) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => c - b'A',
+        b'a'..=b'z' => c - b'a' + 26,
+        b'0'..=b'9' => c - b'0' + 52,
+        b'+' => 62,
+        b'/' => 63,
+        _ => panic!("not base64: {c}"),
+    };
+    let digits: Vec<u8> = text.bytes().filter(|&c| c != b'=').map(value).collect();
+    digits
+        .chunks(4)
+        .flat_map(|c| {
+            let n = c
+                .iter()
+                .enumerate()
+                .fold(0u32, |n, (i, &d)| n | u32::from(d) << (18 - 6 * i));
+            let bytes = [(n >> 16) as u8, (n >> 8) as u8, n as u8];
+            bytes.into_iter().take(c.len() - 1)
+        })
+        .collect()
+}
+
+/// `preview --turntable N`'s directions, as it computes them.
+fn turntable(n: u32) -> Vec<[f64; 3]> {
+    let elevation = 20f64.to_radians();
+    (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / f64::from(n);
+            [
+                elevation.cos() * a.sin(),
+                elevation.sin(),
+                elevation.cos() * a.cos(),
+            ]
+        })
+        .collect()
+}
+
+const SIZE: usize = 256;
+/// The background `preview` is asked for: a colour no sample has, so white surfaces count.
+const BACKGROUND: [u8; 3] = [255, 0, 255];
+
+/// Per view: pixels whose coverage differs, and the mean absolute colour difference (0-255)
+/// over the pixels both cover, between the viewer's drawing and `preview`'s ORI column.
+/// `options`: more of the page's query (`&decode=cpu`).
+fn compare_with_preview(
+    p: &Project,
+    asset: &str,
+    package: &str,
+    options: &str,
+) -> Vec<(usize, f64)> {
+    let directions = turntable(4);
+    let png = p.path(&format!("preview-{}.png", asset.replace('/', "-")));
+    let out = Command::new(EXE)
+        .arg("preview")
+        .arg(p.path("out").join(package))
+        .arg("--config")
+        .arg(p.path("pipeline.toml"))
+        .args(["--turntable", "4", "--size", &SIZE.to_string()])
+        .args(["--background", "ff00ff", "--out"])
+        .arg(&png)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", text(&out));
+    let preview = image::open(&png).unwrap().to_rgb8();
+
+    let dirs: Vec<String> = directions
+        .iter()
+        .map(|d| format!("{},{},{}", d[0], d[1], d[2]))
+        .collect();
+    let query = format!(
+        "?test=views&size={SIZE}&dirs={}{options}#{asset}",
+        dirs.join(";")
+    );
+    let result = test_result(&chromium_dom(
+        &p.path("chromium"),
+        &p.path("out/report/viewer.html"),
+        &query,
+    ));
+    // The viewer's 320 table directions are the pipeline's, bit for bit.
+    let table: Vec<[f64; 3]> = serde_json::from_value(result["directions"].clone()).unwrap();
+    assert_eq!(table, ori_views::evaluation_directions());
+    let views = result["views"].as_array().unwrap();
+    assert_eq!(views.len(), directions.len());
+    views
+        .iter()
+        .enumerate()
+        .map(|(row, v)| {
+            let rgba = base64(v["rgba"].as_str().unwrap());
+            assert_eq!(rgba.len(), SIZE * SIZE * 4);
+            let (mut differ, mut both, mut colour) = (0, 0, 0u64);
+            for y in 0..SIZE {
+                for x in 0..SIZE {
+                    let ours = &rgba[(y * SIZE + x) * 4..][..4];
+                    let theirs = preview.get_pixel(x as u32, (row * SIZE + y) as u32);
+                    let (a, b) = (ours[3] > 0, theirs.0 != BACKGROUND);
+                    if a != b {
+                        differ += 1;
+                    } else if a {
+                        both += 3;
+                        colour += (0..3)
+                            .map(|c| u64::from(ours[c].abs_diff(theirs.0[c])))
+                            .sum::<u64>();
+                    }
+                }
+            }
+            let mean = colour as f64 / both.max(1) as f64;
+            eprintln!(
+                "{asset}{options} {:?}: {differ} pixels differ in coverage ({:.3} %), mean colour \
+                 difference {mean:.3} / 255",
+                directions[row],
+                100.0 * differ as f64 / (SIZE * SIZE) as f64
+            );
+            (differ, mean)
+        })
+        .collect()
+}
+
+/// The Rust reader's verdict on a file: "ok" or its error's variant name.
+fn rust_verdict(bytes: &[u8]) -> String {
+    match ori_package::read_any(bytes) {
+        Ok(_) => "ok".to_string(),
+        Err(e) => {
+            let debug = format!("{e:?}");
+            debug
+                .split(|c: char| !c.is_ascii_alphanumeric())
+                .next()
+                .unwrap()
+                .to_string()
+        }
+    }
+}
+
+/// A package with its manifest bytes edited (same length or longer within the padding) and
+/// the header's length and hash made to hold again.
+fn with_manifest(bytes: &[u8], edit: impl Fn(&str) -> String) -> Vec<u8> {
+    let len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
+    let payload = u64::from_le_bytes(bytes[56..64].try_into().unwrap()) as usize;
+    let json = std::str::from_utf8(&bytes[64..64 + len]).unwrap();
+    let edited = edit(json);
+    assert_ne!(edited, json, "the edit changed nothing");
+    assert!(
+        64 + edited.len() <= payload,
+        "the edit does not fit the padding"
+    );
+    let mut out = bytes[..64].to_vec();
+    out[16..24].copy_from_slice(&(edited.len() as u64).to_le_bytes());
+    out[24..56].copy_from_slice(blake3::hash(edited.as_bytes()).as_bytes());
+    out.extend_from_slice(edited.as_bytes());
+    out.resize(payload, 0);
+    out.extend_from_slice(&bytes[payload..]);
+    out
+}
+
+/// The shared list of valid and damaged packages, made from one valid package of each version.
+fn cases(single: &[u8], hierarchy: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
+    let changed = |at: usize, value: u8| {
+        let mut b = single.to_vec();
+        b[at] = value;
+        b
+    };
+    let len = u64::from_le_bytes(single[16..24].try_into().unwrap()) as usize;
+    let payload = u64::from_le_bytes(single[56..64].try_into().unwrap()) as usize;
+    let mut trailing = single.to_vec();
+    trailing.push(0);
+    let mut hierarchy_texture = hierarchy.to_vec();
+    let last = hierarchy_texture.len() - 10;
+    hierarchy_texture[last] ^= 1;
+    vec![
+        ("valid", single.to_vec()),
+        ("valid-hierarchy", hierarchy.to_vec()),
+        ("empty", Vec::new()),
+        ("bad-magic", changed(0, b'X')),
+        ("text-mode-transfer", changed(6, b'\n')),
+        ("truncated-header", single[..40].to_vec()),
+        ("truncated-manifest", single[..64 + len / 2].to_vec()),
+        ("truncated-texture", single[..single.len() - 100].to_vec()),
+        ("version-0", changed(8, 0)),
+        ("version-3", changed(8, 3)),
+        ("version-2-of-a-single", changed(8, 2)),
+        ("flags", changed(12, 1)),
+        ("wrong-manifest-hash", changed(30, single[30] ^ 1)),
+        ("padding-after-manifest", changed(payload - 1, 7)),
+        (
+            "wrong-texture-hash",
+            changed(single.len() - 10, single[single.len() - 10] ^ 1),
+        ),
+        ("trailing-byte", trailing),
+        (
+            "not-canonical",
+            with_manifest(single, |j| {
+                j.replacen("\"resolution\":", "\"resolution\": ", 1)
+            }),
+        ),
+        (
+            "float-not-shortest",
+            with_manifest(single, |j| {
+                j.replacen("\"goal_percent\":0.2", "\"goal_percent\":0.20", 1)
+            }),
+        ),
+        (
+            "bad-resolution",
+            with_manifest(single, |j| {
+                j.replacen("\"resolution\":256", "\"resolution\":255", 1)
+            }),
+        ),
+        (
+            "unknown-field",
+            with_manifest(single, |j| {
+                j.replacen("{\"format_version\"", "{\"x\":1,\"format_version\"", 1)
+            }),
+        ),
+        (
+            "normal-declared-bc4",
+            with_manifest(single, |j| {
+                j.replacen(
+                    "\"normal\":{\"format\":\"bc5\"",
+                    "\"normal\":{\"format\":\"bc4\"",
+                    1,
+                )
+            }),
+        ),
+        ("damaged-hierarchy-node", hierarchy_texture),
+        (
+            "hierarchy-truncated",
+            hierarchy[..hierarchy.len() / 2].to_vec(),
+        ),
+    ]
+}
+
+#[test]
+fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
+    let p = Project::new(&["bunny", "avocado", "box-vertex-colors"]);
+    // The box as a hierarchy (a root and two halves), drawn by its traversal.
+    p.config(
+        "[[overrides]]\nassets = \"box-vertex-colors/**\"\nhierarchy.enabled = true\n\
+         hierarchy.max_depth = 1\nhierarchy.split = \"kd\"\nhierarchy.target_px = 1000000\n\
+         [[overrides]]\nassets = \"avocado/**\"\ncompress.depth = \"bc4\"\n",
+    );
+    ok(&p.build_with_report(&[]));
+    let viewer = p.path("out/report/viewer.html");
+    let index = fs::read_to_string(p.path("out/report/index.html")).unwrap();
+    assert!(
+        index.contains("viewer.html#bunny/bunny_npm_lowres.obj"),
+        "no link to the viewer"
+    );
+
+    // The same drawing as the wgpu runtime: coverage within 0.5 % of the pixels, colour
+    // within 3 / 255, at four directions between the table's, for a plain mesh, a textured
+    // glTF with BC4 depth (BC textures uploaded compressed, then decoded in the page) and a
+    // hierarchy.
+    for (asset, package, options) in [
+        (
+            "bunny/bunny_npm_lowres.obj",
+            "bunny/bunny_npm_lowres.ori",
+            "",
+        ),
+        ("avocado/Avocado.gltf", "avocado/Avocado.ori", ""),
+        ("avocado/Avocado.gltf", "avocado/Avocado.ori", "&decode=cpu"),
+        (
+            "box-vertex-colors/BoxVertexColors.glb",
+            "box-vertex-colors/BoxVertexColors.ori",
+            "",
+        ),
+    ] {
+        for (differ, colour) in compare_with_preview(&p, asset, package, options) {
+            assert!(
+                differ * 200 <= SIZE * SIZE,
+                "{asset}: {differ} pixels differ"
+            );
+            assert!(colour <= 3.0, "{asset}: mean colour difference {colour}");
+        }
+    }
+
+    // The shared cases: the page's reader says what the Rust reader says, case by case.
+    let single = fs::read(p.path("out/bunny/bunny_npm_lowres.ori")).unwrap();
+    let hierarchy = fs::read(p.path("out/box-vertex-colors/BoxVertexColors.ori")).unwrap();
+    let folder = p.path("out/report/cases");
+    fs::create_dir_all(&folder).unwrap();
+    let mut list = Vec::new();
+    let mut expected = Vec::new();
+    for (name, bytes) in cases(&single, &hierarchy) {
+        let file = format!("cases/{name}.ori");
+        fs::write(p.path("out/report").join(&file), &bytes).unwrap();
+        list.push(serde_json::json!({ "file": file }));
+        expected.push((file, rust_verdict(&bytes)));
+    }
+    let kinds: Vec<&str> = expected.iter().map(|(_, k)| k.as_str()).collect();
+    for kind in [
+        "ok",
+        "Truncated",
+        "ManifestHash",
+        "HashMismatch",
+        "UnsupportedVersion",
+    ] {
+        assert!(kinds.contains(&kind), "no {kind} case: {kinds:?}");
+    }
+    fs::write(
+        folder.join("cases.json"),
+        serde_json::to_vec(&list).unwrap(),
+    )
+    .unwrap();
+    let result = test_result(&chromium_dom(
+        &p.path("chromium"),
+        &viewer,
+        "?test=cases&list=cases/cases.json",
+    ));
+    let got = result["cases"].as_array().unwrap();
+    assert_eq!(got.len(), expected.len());
+    for (g, (file, kind)) in got.iter().zip(&expected) {
+        eprintln!("{file}: Rust {kind}, viewer {}", g["result"]);
+        assert_eq!(g["file"].as_str(), Some(file.as_str()));
+        assert_eq!(g["result"].as_str(), Some(kind.as_str()), "{file}");
+    }
+
+    // A damaged package is a readable error in the page, not a blank canvas.
+    let package = p.path("out/bunny/bunny_npm_lowres.ori");
+    let mut damaged = single.clone();
+    let at = damaged.len() - 10;
+    damaged[at] ^= 1;
+    fs::write(&package, damaged).unwrap();
+    let dom = chromium_dom(&p.path("chromium"), &viewer, "#bunny/bunny_npm_lowres.obj");
+    let error = dom
+        .split("id=\"error\"")
+        .nth(1)
+        .and_then(|s| s.split("</div>").next())
+        .unwrap_or_default();
+    assert!(
+        error.contains("display: block")
+            && error.contains("bunny_npm_lowres.ori cannot be shown")
+            && error.contains("does not match the manifest (HashMismatch)"),
+        "{error}"
+    );
+}
+
+#[test]
+fn the_viewer_matches_the_conformance_data() {
+    // docs/RUNTIME.md section 13: every impostor's full mask in ten views of three packages,
+    // drawn by the page alone; exact with exact depth codes (R8, or BC4 decoded as the
+    // document says), within 1 pixel in 100 with the browser's own BC4 decoder.
+    let p = Project::new(&["box-vertex-colors"]);
+    ok(&p.build_with_report(&[]));
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/conformance");
+    for case in ["bunny-r8", "box-bc4", "vase-r8"] {
+        let folder = fs::canonicalize(docs.join(case)).unwrap();
+        for decode in ["", "&decode=cpu"] {
+            let result = test_result(&chromium_dom(
+                &p.path("chromium"),
+                &p.path("out/report/viewer.html"),
+                &format!("?test=conformance&case=file://{}{decode}", folder.display()),
+            ));
+            let (differ, pixels) = (&result["differ"], &result["pixels"]);
+            let (differ, pixels) = (differ.as_u64().unwrap(), pixels.as_u64().unwrap());
+            eprintln!(
+                "{case}{decode}: {} masks, {differ} of {pixels} pixels differ ({})",
+                result["masks"], result["compressed"]
+            );
+            assert_eq!(result["masks"], 80, "{case}");
+            if result["depth"] == "bc4" && decode.is_empty() {
+                assert!(differ * 100 <= pixels, "{case}: {differ} of {pixels}");
+            } else {
+                assert_eq!(differ, 0, "{case}{decode}");
+            }
+        }
+    }
+}
+
+#[test]
+fn sixty_frames_of_orbit_around_the_dragon_take_under_five_seconds() {
+    let p = Project::new(&[]);
+    let model = "stanford/dragon/dragon_res2_binary.ply";
+    let to = p.path("assets").join(model);
+    fs::create_dir_all(to.parent().unwrap()).unwrap();
+    fs::copy(shared_models().join(model), &to).unwrap();
+    ok(&p.build_with_report(&[]));
+    let viewer = p.path("out/report/viewer.html");
+    // The page's clock stands still under virtual time: time the whole run, with and without
+    // the frames, and take the better of two tries (the machine is shared).
+    let run = |frames: u32| {
+        let started = Instant::now();
+        let result = test_result(&chromium_dom(
+            &p.path("chromium"),
+            &viewer,
+            &format!("?test=orbit&frames={frames}"),
+        ));
+        assert_eq!(result["frames"], frames);
+        started.elapsed().as_secs_f64()
+    };
+    let base = run(0);
+    let mut best = f64::MAX;
+    for _ in 0..2 {
+        best = best.min(run(60) - base);
+        if best < 5.0 {
+            break;
+        }
+    }
+    eprintln!("60 frames of orbit (640 x 640) in {best:.2} s (page load alone {base:.2} s)");
+    assert!(best < 5.0, "60 frames took {best:.2} s");
+}
