@@ -104,6 +104,14 @@ const SIZE: usize = 256;
 /// The background `preview` is asked for: a colour no sample has, so white surfaces count.
 const BACKGROUND: [u8; 3] = [255, 0, 255];
 
+/// What `preview` is asked to draw, and the viewer the same.
+enum Views {
+    /// `--turntable N`: orthographic framings around the vertical axis.
+    Turntable(u32),
+    /// `--path N --dir D`: perspective views approaching along `D`.
+    Path(u32, [f64; 3]),
+}
+
 /// Per view: pixels whose coverage differs, and the mean absolute colour difference (0-255)
 /// over the pixels both cover, between the viewer's drawing and `preview`'s ORI column.
 /// `options`: more of the page's query (`&decode=cpu`).
@@ -111,16 +119,46 @@ fn compare_with_preview(
     p: &Project,
     asset: &str,
     package: &str,
+    views: &Views,
     options: &str,
 ) -> Vec<(usize, f64)> {
-    let directions = turntable(4);
     let png = p.path(&format!("preview-{}.png", asset.replace('/', "-")));
+    let (preview_args, query) = match *views {
+        Views::Turntable(n) => {
+            let dirs: Vec<String> = turntable(n)
+                .iter()
+                .map(|d| format!("{},{},{}", d[0], d[1], d[2]))
+                .collect();
+            let args = vec!["--turntable".to_string(), n.to_string()];
+            (args, format!("dirs={}", dirs.join(";")))
+        }
+        Views::Path(n, d) => {
+            // The object's sizes along the path, as `preview --path` computes them.
+            let bytes = fs::read(p.path("out").join(package)).unwrap();
+            let plts: Vec<f64> = match ori_package::read_any(&bytes).unwrap() {
+                ori_package::AnyPackage::Single(p) => vec![p.manifest.plt.pixels],
+                ori_package::AnyPackage::Hierarchy(h) => {
+                    h.nodes.iter().map(|n| n.manifest.plt.pixels).collect()
+                }
+            };
+            let largest = plts.iter().copied().fold(0.0, f64::max);
+            let (far, near) = (0.25 * plts[0], 4.0 * largest);
+            let edges: Vec<String> = (0..n)
+                .map(|k| far * (near / far).powf(f64::from(k) / f64::from(n - 1)))
+                .map(|edge| edge.to_string())
+                .collect();
+            let dir = format!("{},{},{}", d[0], d[1], d[2]);
+            let args = vec!["--path".into(), n.to_string(), "--dir".into(), dir.clone()];
+            (args, format!("dirs={dir}&edges={}", edges.join(",")))
+        }
+    };
     let out = Command::new(EXE)
         .arg("preview")
         .arg(p.path("out").join(package))
         .arg("--config")
         .arg(p.path("pipeline.toml"))
-        .args(["--turntable", "4", "--size", &SIZE.to_string()])
+        .args(&preview_args)
+        .args(["--size", &SIZE.to_string()])
         .args(["--background", "ff00ff", "--out"])
         .arg(&png)
         .output()
@@ -128,25 +166,17 @@ fn compare_with_preview(
     assert!(out.status.success(), "{}", text(&out));
     let preview = image::open(&png).unwrap().to_rgb8();
 
-    let dirs: Vec<String> = directions
-        .iter()
-        .map(|d| format!("{},{},{}", d[0], d[1], d[2]))
-        .collect();
-    let query = format!(
-        "?test=views&size={SIZE}&dirs={}{options}#{asset}",
-        dirs.join(";")
-    );
     let result = test_result(&chromium_dom(
         &p.path("chromium"),
         &p.path("out/report/viewer.html"),
-        &query,
+        &format!("?test=views&size={SIZE}&{query}{options}#{asset}"),
     ));
     // The viewer's 320 table directions are the pipeline's, bit for bit.
     let table: Vec<[f64; 3]> = serde_json::from_value(result["directions"].clone()).unwrap();
     assert_eq!(table, ori_views::evaluation_directions());
-    let views = result["views"].as_array().unwrap();
-    assert_eq!(views.len(), directions.len());
-    views
+    let drawn = result["views"].as_array().unwrap();
+    assert_eq!(drawn.len() * SIZE, preview.height() as usize);
+    drawn
         .iter()
         .enumerate()
         .map(|(row, v)| {
@@ -168,11 +198,12 @@ fn compare_with_preview(
                     }
                 }
             }
-            let mean = colour as f64 / both.max(1) as f64;
+            assert!(both > 0, "{asset} view {row}: nothing drawn");
+            let mean = colour as f64 / both as f64;
             eprintln!(
-                "{asset}{options} {:?}: {differ} pixels differ in coverage ({:.3} %), mean colour \
-                 difference {mean:.3} / 255",
-                directions[row],
+                "{asset}{options} view {row} (dir {}): {differ} pixels differ in coverage \
+                 ({:.3} %), mean colour difference {mean:.3} / 255",
+                v["dir"],
                 100.0 * differ as f64 / (SIZE * SIZE) as f64
             );
             (differ, mean)
@@ -313,21 +344,24 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     // within 3 / 255, at four directions between the table's, for a plain mesh, a textured
     // glTF with BC4 depth (BC textures uploaded compressed, then decoded in the page) and a
     // hierarchy.
-    for (asset, package, options) in [
-        (
-            "bunny/bunny_npm_lowres.obj",
-            "bunny/bunny_npm_lowres.ori",
-            "",
-        ),
-        ("avocado/Avocado.gltf", "avocado/Avocado.ori", ""),
-        ("avocado/Avocado.gltf", "avocado/Avocado.ori", "&decode=cpu"),
-        (
-            "box-vertex-colors/BoxVertexColors.glb",
-            "box-vertex-colors/BoxVertexColors.ori",
-            "",
-        ),
+    // Then perspective views approaching the bunny and the hierarchy (whose traversal then
+    // draws its root, its children and its leaves' meshes), as the viewer draws by default.
+    let bunny = ("bunny/bunny_npm_lowres.obj", "bunny/bunny_npm_lowres.ori");
+    let avocado = ("avocado/Avocado.gltf", "avocado/Avocado.ori");
+    let tree = (
+        "box-vertex-colors/BoxVertexColors.glb",
+        "box-vertex-colors/BoxVertexColors.ori",
+    );
+    let (around, approach) = (Views::Turntable(4), Views::Path(4, [0.3, 0.4, 1.0]));
+    for ((asset, package), views, options) in [
+        (bunny, &around, ""),
+        (avocado, &around, ""),
+        (avocado, &around, "&decode=cpu"),
+        (tree, &around, ""),
+        (bunny, &approach, ""),
+        (tree, &approach, ""),
     ] {
-        for (differ, colour) in compare_with_preview(&p, asset, package, options) {
+        for (differ, colour) in compare_with_preview(&p, asset, package, views, options) {
             assert!(
                 differ * 200 <= SIZE * SIZE,
                 "{asset}: {differ} pixels differ"
