@@ -326,10 +326,14 @@ fn cases(single: &[u8], hierarchy: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
 #[test]
 fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     let p = Project::new(&["bunny", "avocado", "box-vertex-colors"]);
-    // The box as a hierarchy (a root and two halves), drawn by its traversal.
+    copy_dir(&samples().join("bunny"), &p.path("assets/bunny-tree"));
+    // Two hierarchies, drawn by their traversal: the box as a root and two halves, the bunny
+    // as a root and its octants (small maps, so the test stays quick).
     p.config(
         "[[overrides]]\nassets = \"box-vertex-colors/**\"\nhierarchy.enabled = true\n\
          hierarchy.max_depth = 1\nhierarchy.split = \"kd\"\nhierarchy.target_px = 1000000\n\
+         [[overrides]]\nassets = \"bunny-tree/**\"\nhierarchy.enabled = true\n\
+         hierarchy.max_depth = 1\nhierarchy.target_px = 1000000\nbake.resolution = 64\n\
          [[overrides]]\nassets = \"avocado/**\"\ncompress.depth = \"bc4\"\n",
     );
     ok(&p.build_with_report(&[]));
@@ -344,13 +348,18 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     // within 3 / 255, at four directions between the table's, for a plain mesh, a textured
     // glTF with BC4 depth (BC textures uploaded compressed, then decoded in the page) and a
     // hierarchy.
-    // Then perspective views approaching the bunny and the hierarchy (whose traversal then
-    // draws its root, its children and its leaves' meshes), as the viewer draws by default.
+    // Then perspective views approaching the bunny and the hierarchies (whose traversal then
+    // draws their roots, children and leaves' meshes, option 5 between and within nodes), as
+    // the viewer draws by default.
     let bunny = ("bunny/bunny_npm_lowres.obj", "bunny/bunny_npm_lowres.ori");
     let avocado = ("avocado/Avocado.gltf", "avocado/Avocado.ori");
     let tree = (
         "box-vertex-colors/BoxVertexColors.glb",
         "box-vertex-colors/BoxVertexColors.ori",
+    );
+    let octants = (
+        "bunny-tree/bunny_npm_lowres.obj",
+        "bunny-tree/bunny_npm_lowres.ori",
     );
     let (around, approach) = (Views::Turntable(4), Views::Path(4, [0.3, 0.4, 1.0]));
     for ((asset, package), views, options) in [
@@ -360,6 +369,7 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
         (tree, &around, ""),
         (bunny, &approach, ""),
         (tree, &approach, ""),
+        (octants, &approach, ""),
     ] {
         for (differ, colour) in compare_with_preview(&p, asset, package, views, options) {
             assert!(

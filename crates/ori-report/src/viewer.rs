@@ -36,8 +36,9 @@ pub fn page(assets: &[ViewerAsset]) -> String {
     let list = serde_json::to_string(assets)
         .expect("serialises")
         .replace('<', "\\u003c");
-    PAGE.replace("{{ASSETS}}", &list)
-        .replace("{{SCRIPTS}}", &SCRIPTS.join("\n"))
+    // The scripts first: the asset list is the one text not ours.
+    PAGE.replace("{{SCRIPTS}}", &SCRIPTS.join("\n"))
+        .replace("{{ASSETS}}", &list)
 }
 
 /// `mesh.bin`: magic `ORIMESH1`, u32 vertex and triangle counts, f32 x 3 lowest corner and

@@ -10,39 +10,60 @@ const BLAKE3_PERMUTATION = [2, 6, 3, 10, 7, 0, 4, 13, 1, 11, 12, 5, 9, 14, 15, 8
 const CHUNK_START = 1, CHUNK_END = 2, PARENT = 4, ROOT = 8;
 
 // The compression function: the first 8 words of the output into `out` (a chaining value).
+// The state and message live in locals and two scratch arrays: hashing a package is most of
+// the time it takes to open one.
+const BLAKE3_SCHEDULE = (() => {
+  const rounds = [];
+  let order = [...Array(16).keys()];
+  for (let r = 0; r < 7; r++) {
+    rounds.push(order);
+    order = BLAKE3_PERMUTATION.map((i) => order[i]);
+  }
+  return rounds;
+})();
+const blake3State = new Uint32Array(16);
+
 function blake3Compress(cv, m, counter, blockLen, flags, out) {
-  const s = new Uint32Array(16);
+  const s = blake3State;
   s.set(cv, 0);
-  s.set(BLAKE3_IV.subarray(0, 4), 8);
+  s[8] = BLAKE3_IV[0];
+  s[9] = BLAKE3_IV[1];
+  s[10] = BLAKE3_IV[2];
+  s[11] = BLAKE3_IV[3];
   s[12] = counter % 0x100000000;
   s[13] = Math.floor(counter / 0x100000000);
   s[14] = blockLen;
   s[15] = flags;
-  let w = Uint32Array.from(m);
   const g = (a, b, c, d, x, y) => {
-    s[a] = s[a] + s[b] + x;
-    let t = s[d] ^ s[a]; s[d] = (t >>> 16) | (t << 16);
-    s[c] = s[c] + s[d];
-    t = s[b] ^ s[c]; s[b] = (t >>> 12) | (t << 20);
-    s[a] = s[a] + s[b] + y;
-    t = s[d] ^ s[a]; s[d] = (t >>> 8) | (t << 24);
-    s[c] = s[c] + s[d];
-    t = s[b] ^ s[c]; s[b] = (t >>> 7) | (t << 25);
+    let va = s[a], vb = s[b], vc = s[c], vd = s[d];
+    va = (va + vb + x) | 0;
+    vd ^= va; vd = (vd >>> 16) | (vd << 16);
+    vc = (vc + vd) | 0;
+    vb ^= vc; vb = (vb >>> 12) | (vb << 20);
+    va = (va + vb + y) | 0;
+    vd ^= va; vd = (vd >>> 8) | (vd << 24);
+    vc = (vc + vd) | 0;
+    vb ^= vc; vb = (vb >>> 7) | (vb << 25);
+    s[a] = va; s[b] = vb; s[c] = vc; s[d] = vd;
   };
   for (let round = 0; round < 7; round++) {
-    g(0, 4, 8, 12, w[0], w[1]); g(1, 5, 9, 13, w[2], w[3]);
-    g(2, 6, 10, 14, w[4], w[5]); g(3, 7, 11, 15, w[6], w[7]);
-    g(0, 5, 10, 15, w[8], w[9]); g(1, 6, 11, 12, w[10], w[11]);
-    g(2, 7, 8, 13, w[12], w[13]); g(3, 4, 9, 14, w[14], w[15]);
-    const p = new Uint32Array(16);
-    for (let i = 0; i < 16; i++) p[i] = w[BLAKE3_PERMUTATION[i]];
-    w = p;
+    const o = BLAKE3_SCHEDULE[round];
+    g(0, 4, 8, 12, m[o[0]], m[o[1]]); g(1, 5, 9, 13, m[o[2]], m[o[3]]);
+    g(2, 6, 10, 14, m[o[4]], m[o[5]]); g(3, 7, 11, 15, m[o[6]], m[o[7]]);
+    g(0, 5, 10, 15, m[o[8]], m[o[9]]); g(1, 6, 11, 12, m[o[10]], m[o[11]]);
+    g(2, 7, 8, 13, m[o[12]], m[o[13]]); g(3, 4, 9, 14, m[o[14]], m[o[15]]);
   }
   for (let i = 0; i < 8; i++) out[i] = s[i] ^ s[i + 8];
 }
 
 // Block `index` of `bytes` from `start` (zero-padded) as 16 little-endian words.
 function blake3Block(bytes, start, len, words) {
+  if (len === 64) {
+    for (let w = 0, i = start; w < 16; w++, i += 4) {
+      words[w] = bytes[i] | (bytes[i + 1] << 8) | (bytes[i + 2] << 16) | (bytes[i + 3] << 24);
+    }
+    return;
+  }
   words.fill(0);
   for (let i = 0; i < len; i++) words[i >> 2] |= bytes[start + i] << (8 * (i & 3));
 }

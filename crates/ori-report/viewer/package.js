@@ -31,35 +31,58 @@ function hex(bytes) {
 
 // ---- Canonical JSON (docs/FORMAT.md "Manifest") ------------------------------------------
 
-// serde_json's float printing (ryu): the shortest digits that read back, in ryu's layout.
-// `bits32`: the shortest form of the f32 value instead of the f64.
+// serde_json's float printing: the shortest digits that read back (to the f64, or with
+// `bits32` to the f32), laid out as serde_json does: plain decimals for 10^-5 (f32: 10^-6) up
+// to 10^16 (f32: 10^13), else scientific with `e-` or `e+` (`1e-7`, `1.5e+300`).
 function ryuFormat(x, bits32) {
   if (x === 0) return Object.is(x, -0) ? "-0.0" : "0.0";
   const sign = x < 0 ? "-" : "";
   const a = Math.abs(x);
-  let sci = a.toExponential();
-  if (bits32) {
-    for (let p = 0; p < 17; p++) {
-      const s = a.toExponential(p);
-      if (Math.fround(Number(s)) === a) {
-        sci = s;
-        break;
-      }
-    }
-  }
-  const [mant, expText] = sci.split("e");
-  const digits = mant.replace(".", "").replace(/0+$/, "") || "0";
-  const kk = Number(expText) + 1; // 10^(kk-1) <= a < 10^kk
+  const [digits, kk] = bits32 ? shortestF32(a) : shortestF64(a);
   const len = digits.length;
-  const k = kk - len;
+  const k = kk - len; // a = digits x 10^k, 10^(kk-1) <= a < 10^kk
   const max = bits32 ? 13 : 16;
+  const min = bits32 ? -6 : -5;
   let out;
   if (k >= 0 && kk <= max) out = digits + "0".repeat(k) + ".0";
   else if (kk > 0 && kk <= max) out = digits.slice(0, kk) + "." + digits.slice(kk);
-  else if (kk > -5 && kk <= 0) out = "0." + "0".repeat(-kk) + digits;
-  else if (len === 1) out = digits + "e" + (kk - 1);
-  else out = digits[0] + "." + digits.slice(1) + "e" + (kk - 1);
+  else if (kk > min && kk <= 0) out = "0." + "0".repeat(-kk) + digits;
+  else {
+    const e = kk - 1;
+    const exp = e < 0 ? `e${e}` : `e+${e}`;
+    out = (len === 1 ? digits : digits[0] + "." + digits.slice(1)) + exp;
+  }
   return sign + out;
+}
+
+// Digits (no trailing zeros) and decimal exponent `kk` of a scientific form `d.ddd e(kk-1)`.
+function splitScientific(text) {
+  const [mant, expText] = text.split("e");
+  return [mant.replace(".", "").replace(/0+$/, "") || "0", Number(expText) + 1];
+}
+
+function shortestF64(a) {
+  return splitScientific(a.toExponential());
+}
+
+// The shortest digits that read back to the f32 `a`, the closest to it among those.
+function shortestF32(a) {
+  for (let p = 1; p <= 9; p++) {
+    const [digits, kk] = splitScientific(a.toExponential(p - 1));
+    const m = BigInt(digits.padEnd(p, "0"));
+    let best = null;
+    // The correctly rounded p digits, and their neighbours (at a power of two the interval
+    // that reads back is lopsided).
+    for (const c of [m - 1n, m, m + 1n]) {
+      if (c <= 0n) continue;
+      const text = `${c}e${kk - p}`;
+      const value = Number(text);
+      if (Math.fround(value) !== a) continue;
+      if (best === null || Math.abs(value - a) < Math.abs(best.value - a)) best = { text, value };
+    }
+    if (best !== null) return splitScientific(best.value.toExponential(p - 1));
+  }
+  return splitScientific(a.toExponential(8));
 }
 
 // A JSON object as read: its [key, value] pairs in file order.
@@ -84,7 +107,7 @@ class JsonNumber {
 function parseCanonicalJson(bytes) {
   let text;
   try {
-    text = new TextDecoder("utf-8", { fatal: true }).decode(bytes);
+    text = new TextDecoder("utf-8", { fatal: true, ignoreBOM: true }).decode(bytes);
   } catch (e) {
     throw new OriError("Manifest", "the manifest is not UTF-8");
   }
@@ -131,17 +154,20 @@ function parseCanonicalJson(bytes) {
     at += m[0].length;
     const n = new JsonNumber(m[0]);
     if (!Number.isFinite(n.value)) fail("a number out of range");
+    // Every float as serde_json prints an f64; f32 fields are held to their own form later.
+    // Integers beyond u64 and i64 read as floats and print in float form.
     if (n.isFloat) {
-      if (ryuFormat(n.value, false) !== n.text && ryuFormat(n.value, true) !== n.text) {
+      if (ryuFormat(n.value, false) !== n.text && ryuFormat(Math.fround(n.value), true) !== n.text) {
         fail(`the float ${n.text} is not in its shortest form`);
       }
-    } else if (n.text === "-0") {
-      fail("-0");
+    } else {
+      const big = BigInt(n.text);
+      if (n.text === "-0" || big > 18446744073709551615n || big < -9223372036854775808n) fail(`the integer ${n.text}`);
     }
     return n;
   };
   const value = (depth) => {
-    if (depth > 64) fail("nested too deeply");
+    if (depth > 127) fail("nested too deeply");
     const c = text[at];
     if (c === "{") {
       at++;
@@ -216,18 +242,26 @@ function fields(object, names, where) {
   return Object.fromEntries(pairs);
 }
 
-function integer(v, where, max = Number.MAX_SAFE_INTEGER) {
+function integer(v, where, max = 0xffffffff) {
   if (!(v instanceof JsonNumber) || v.isFloat || v.value < 0 || v.value > max) {
     bad(`${where} must be an integer in 0..=${max}`);
   }
   return v.value;
 }
 
+// A u64 field, exactly (a BigInt): offsets and lengths are checked against the file with
+// u64 arithmetic.
+function u64(v, where) {
+  if (!(v instanceof JsonNumber) || v.isFloat || v.text.startsWith("-")) bad(`${where} must be an integer in 0..=2^64-1`);
+  return BigInt(v.text);
+}
+
 function float(v, where, bits32) {
-  if (!(v instanceof JsonNumber) || !v.isFloat || ryuFormat(v.value, bits32) !== v.text) {
+  const value = v instanceof JsonNumber ? (bits32 ? Math.fround(v.value) : v.value) : NaN;
+  if (!(v instanceof JsonNumber) || !v.isFloat || ryuFormat(value, bits32) !== v.text) {
     bad(`${where} must be a float in its shortest ${bits32 ? "f32" : "f64"} form`);
   }
-  return v.value;
+  return value;
 }
 
 function floats(v, n, where, bits32) {
@@ -254,9 +288,12 @@ function isPowerOfTwo(n) {
 }
 
 // `params`: any JSON object with its keys sorted byte-wise at every depth, kept as plain
-// JavaScript values.
+// JavaScript objects and arrays with `JsonNumber`s.
 function plain(v, where) {
-  if (v instanceof JsonNumber) return v.value;
+  if (v instanceof JsonNumber) {
+    if (v.isFloat && ryuFormat(v.value, false) !== v.text) bad(`${where}: the float ${v.text} is not in its shortest form`);
+    return v;
+  }
   if (Array.isArray(v)) return v.map((x, i) => plain(x, `${where}[${i}]`));
   if (!(v instanceof JsonObject)) return v;
   const out = Object.create(null);
@@ -293,8 +330,8 @@ function textureRef(v, where) {
   if (!TEXTURE_FORMATS.includes(format)) bad(`${where}.format ${format} is not a texture format`);
   return {
     format,
-    offset: integer(f.offset, `${where}.offset`),
-    length: integer(f.length, `${where}.length`),
+    offset: u64(f.offset, `${where}.offset`),
+    length: u64(f.length, `${where}.length`),
     blake3: str(f.blake3, `${where}.blake3`),
   };
 }
@@ -448,24 +485,34 @@ function frame(bytes, versions) {
   return { version, json, payload };
 }
 
-// The packing rule of docs/FORMAT.md "Textures" for parts `[{what, offset, length}]`.
+// The packing rule of docs/FORMAT.md "Textures" for parts `[{what, offset, length}]`
+// (offsets and lengths as BigInt: the checks are u64 arithmetic, as the format's).
 function checkPacked(bytes, payload, parts) {
-  let previous = payload;
-  let first = true;
+  const have = BigInt(bytes.length);
+  const U64_MAX = 18446744073709551615n;
+  const alignUp = (x) => {
+    const up = ((x + 255n) / 256n) * 256n;
+    return up > U64_MAX ? U64_MAX : up;
+  };
+  let pos = BigInt(payload);
   for (const p of parts) {
-    if (p.offset % 256 !== 0) throw new OriError("Layout", `${p.what} is misaligned`);
-    if (p.offset < previous) throw new OriError("Layout", `${p.what} overlaps the part before it`);
-    const expected = first ? payload : Math.ceil(previous / 256) * 256;
-    if (p.offset !== expected) throw new OriError("Layout", `${p.what}: a gap before it`);
+    if (p.offset % 256n !== 0n) throw new OriError("Layout", `${p.what} is misaligned`);
+    if (p.offset < pos) throw new OriError("Layout", `${p.what} overlaps the part before it`);
+    if (p.offset !== alignUp(pos)) throw new OriError("Layout", `${p.what}: a gap before it`);
     const end = p.offset + p.length;
-    if (end > bytes.length) throw new OriError("Truncated", `${p.what}: the file ends inside the texture data`);
-    for (let i = previous; i < p.offset; i++) {
+    if (end > U64_MAX) throw new OriError("Layout", `${p.what}: its length is impossibly large`);
+    if (end > have) throw new OriError("Truncated", `${p.what}: the file ends inside the texture data`);
+    for (let i = Number(pos); i < Number(p.offset); i++) {
       if (bytes[i] !== 0) throw new OriError("Layout", `nonzero padding before ${p.what}`);
     }
-    previous = end;
-    first = false;
+    pos = end;
   }
-  if (previous !== bytes.length) throw new OriError("Layout", "trailing bytes after the last part");
+  if (pos !== have) throw new OriError("Layout", "trailing bytes after the last part");
+}
+
+// The bytes of a part `checkPacked` accepted.
+function partOf(bytes, ref) {
+  return bytes.subarray(Number(ref.offset), Number(ref.offset + ref.length));
 }
 
 const VK_FORMATS = { r8: 9, bc4: 139, bc5: 141, bc1_srgb: 132 };
@@ -629,12 +676,12 @@ function columnTops(codes, n) {
 // The search parameters recorded in `params.select` (RUNTIME.md section 7), defaults otherwise.
 function recordedMarch(params) {
   const select = params && typeof params.select === "object" && params.select !== null ? params.select : {};
-  const int = (v, lo, hi, d) => (Number.isInteger(v) && v >= lo && v <= hi ? v : d);
+  const int = (v, lo, hi, d) => (v instanceof JsonNumber && !v.isFloat && v.value >= lo && v.value <= hi ? v.value : d);
   const w = select.wall_threshold;
   return {
     linearSteps: int(select.linear_steps, 1, 1024, 16),
     binarySteps: int(select.binary_steps, 0, 32, 7),
-    wallThreshold: Math.fround(typeof w === "number" && Number.isFinite(w) && w >= 0 ? w : 0.25),
+    wallThreshold: Math.fround(w instanceof JsonNumber && Number.isFinite(w.value) && w.value >= 0 ? w.value : 0.25),
   };
 }
 
@@ -650,17 +697,17 @@ function readPackage(bytes) {
     }
   });
   checkPacked(bytes, payload, parts);
-  for (const p of parts) {
-    if (hex(blake3(bytes.subarray(p.offset, p.offset + p.length))) !== p.ref.blake3) {
+  // Per texture in file order: its hash, then its KTX2 (as the Rust reader).
+  const n = manifest.resolution;
+  const levels = parts.map((p) => {
+    const file = partOf(bytes, p.ref);
+    if (hex(blake3(file)) !== p.ref.blake3) {
       throw new OriError("HashMismatch", `impostor ${p.i} ${p.map}: its blake3 does not match the manifest`);
     }
-  }
-  const n = manifest.resolution;
+    return ktx2Level0(file, p.ref.format, n, `impostor ${p.i} ${p.map}`);
+  });
   const maps = manifest.impostors.map((imp, i) => {
-    const level = (map) => ktx2Level0(bytes.subarray(imp[map].offset, imp[map].offset + imp[map].length), imp[map].format, n, `impostor ${i} ${map}`);
-    const depth = level("depth");
-    const normal = level("normal");
-    const albedo = level("albedo");
+    const [depth, normal, albedo] = levels.slice(3 * i, 3 * i + 3);
     const codes = depthCodes(manifest.depth_format, depth, n);
     return { depth, normal, albedo, codes, columns: columnTops(codes, n) };
   });
@@ -699,7 +746,7 @@ function readHierarchy(bytes) {
       parent[c] = i;
     }
     const p = fields(node.package, ["offset", "length", "blake3"], `node ${i} package`);
-    const pkg = { offset: integer(p.offset, `node ${i} offset`), length: integer(p.length, `node ${i} length`), blake3: str(p.blake3, `node ${i} blake3`) };
+    const pkg = { offset: u64(p.offset, `node ${i} offset`), length: u64(p.length, `node ${i} length`), blake3: str(p.blake3, `node ${i} blake3`) };
     if (!isHashHex(pkg.blake3)) bad(`node ${i} package blake3 is not 64 lowercase hex digits`);
     return { bounds, children, package: pkg };
   });
@@ -711,7 +758,7 @@ function readHierarchy(bytes) {
   }
   checkPacked(bytes, payload, m.nodes.map((n, i) => ({ what: `node ${i} package`, offset: n.package.offset, length: n.package.length })));
   const nodes = m.nodes.map((n, i) => {
-    const data = bytes.subarray(n.package.offset, n.package.offset + n.package.length);
+    const data = partOf(bytes, n.package);
     if (hex(blake3(data)) !== n.package.blake3) bad(`node ${i} package is corrupt: its blake3 does not match the manifest`);
     let pkg;
     try {

@@ -45,6 +45,8 @@ uniform vec3 frameD;
 uniform vec3 light;
 uniform vec4 tint;        // rgb multiplier, a: 1 to tint
 uniform float height;     // framebuffer height: rows count from the top
+uniform float bias;       // option 5: the bias per unit cos, a world length; 0 under option 3
+uniform vec4 depthModel;  // clip depth from distance: x per world unit (orthographic); y - z / distance
 uniform sampler2D depthMap;
 uniform sampler2D normalMap;
 uniform sampler2D albedoMap;
@@ -208,6 +210,12 @@ void main() {
   if (tint.a > 0.0) linear *= tint.rgb;
   color = vec4(srgbEncode(linear), 1.0);
   gl_FragDepth = depth;
+  if (bias > 0.0) {
+    // Option 5: the hit pushed away from the viewer by (1 - cos) * bias, cos = nz.
+    float away = bias * (1.0 - nz);
+    float biased = info.x == 0 ? depth + away * depthModel.x : depthModel.y - depthModel.z / (clip.w + away);
+    gl_FragDepth = min(biased, 1.0);
+  }
 }`;
 
 const MESH_VERTEX = `#version 300 es
@@ -248,9 +256,11 @@ vec3 srgbEncode(vec3 c) {
 void main() {
   // A hierarchy leaf draws the model inside its cell only.
   if (any(lessThan(world, cellLo)) || any(greaterThan(world, cellHi))) discard;
-  // The vertex normal; the face's where the mesh has none (window rows grow upwards here).
-  vec3 n = dot(normal, normal) > 0.0 ? normalize(normal) : normalize(cross(dFdx(world), dFdy(world)));
-  if (!gl_FrontFacing) n = -n;
+  // The face normal turned towards the viewer (window rows grow upwards here), and the
+  // vertex normal turned to agree with it; the face's where the mesh has none.
+  vec3 face = normalize(cross(dFdx(world), dFdy(world)));
+  vec3 n = dot(normal, normal) > 0.0 ? normalize(normal) : face;
+  if (dot(n, face) < 0.0) n = -n;
   float shade = 0.3 + 0.7 * max(dot(n, light), 0.0);
   vec3 linear = colour * shade;
   if (tint.a > 0.0) linear *= tint.rgb;
@@ -349,6 +359,13 @@ function viewDirection(camera, target) {
 function cameraLight(camera) {
   const f = camera.frame;
   return normalize0([0, 1, 2].map((k) => 0.3 * f.u[k] + 0.5 * f.v[k] + f.d[k]));
+}
+
+// How clip depth follows distance from the viewer, for option 5's bias.
+function depthModel(camera) {
+  if (camera.ortho) return [1.0 / (camera.near - camera.far), 0, 0, 0];
+  const range = camera.far - camera.near;
+  return [0, camera.far / range, (camera.far * camera.near) / range, 0];
 }
 
 // World to clip, as rows; clip depth in [0, 1].
@@ -500,6 +517,22 @@ class OriRenderer {
     this.compose = compile(gl, COMPOSE_VERTEX, COMPOSE_FRAGMENT);
     this.lineBuffer = gl.createBuffer();
     this.targets = null;
+    // Textures and buffers of the loaded asset, deleted when another is loaded.
+    this.owned = [];
+  }
+
+  // Free everything `loadPackage` and `loadMesh` made.
+  unload() {
+    const gl = this.gl;
+    for (const o of this.owned) {
+      if (o instanceof WebGLTexture) gl.deleteTexture(o);
+      else if (o instanceof WebGLBuffer) gl.deleteBuffer(o);
+      else if (o instanceof WebGLRenderbuffer) gl.deleteRenderbuffer(o);
+      else if (o instanceof WebGLFramebuffer) gl.deleteFramebuffer(o);
+      else if (o instanceof WebGLVertexArrayObject) gl.deleteVertexArray(o);
+    }
+    this.owned = [];
+    this.targets = null;
   }
 
   // Which textures stay compressed on the GPU.
@@ -511,6 +544,7 @@ class OriRenderer {
   texture(setup) {
     const gl = this.gl;
     const t = gl.createTexture();
+    this.owned.push(t);
     gl.bindTexture(gl.TEXTURE_2D, t);
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
     setup(gl);
@@ -548,9 +582,11 @@ class OriRenderer {
   loadMesh(mesh) {
     const gl = this.gl;
     const vao = gl.createVertexArray();
+    this.owned.push(vao);
     gl.bindVertexArray(vao);
     const attribute = (name, data, size, type) => {
       const b = gl.createBuffer();
+      this.owned.push(b);
       gl.bindBuffer(gl.ARRAY_BUFFER, b);
       gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
       const at = gl.getAttribLocation(this.mesh.program, name);
@@ -561,6 +597,7 @@ class OriRenderer {
     attribute("albedo", mesh.colours, 4, gl.UNSIGNED_BYTE);
     attribute("normalIn", mesh.normals, 4, gl.BYTE);
     const indices = gl.createBuffer();
+    this.owned.push(indices);
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, indices);
     gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
     gl.bindVertexArray(null);
@@ -569,33 +606,43 @@ class OriRenderer {
 
   // The selection entry a camera draws for a loaded package.
   entryFor(gpu, camera) {
-    const w = normalize0(viewDirection(camera, gpu.pkg.manifest.bounding_sphere.center));
-    return nearestEntry(gpu.directions, w);
+    // Already unit: the camera frame's d, or the normalised direction to the eye.
+    return nearestEntry(gpu.directions, viewDirection(camera, gpu.pkg.manifest.bounding_sphere.center));
   }
 
-  // Draw one ORI with option 3: its entry's impostors in list order, first writer wins.
-  drawOri(gpu, camera, width, height, stencilRef, tint) {
+  // Draw one ORI: its entry's impostors in list order.
+  drawOri(gpu, camera, width, height, priority) {
     const entry = gpu.pkg.manifest.selection.entries[this.entryFor(gpu, camera)];
-    return this.drawImpostors(gpu, entry.impostors, camera, width, height, stencilRef, tint);
+    return this.drawImpostors(gpu, entry.impostors, camera, width, height, priority);
   }
 
-  // Draw the impostors `list` of a loaded package, in list order, first writer wins; returns
-  // those that could draw (facing the camera, not empty).
-  drawImpostors(gpu, list, camera, width, height, stencilRef, tint) {
+  // Draw the impostors `list` of a loaded package in list order, under option 3 (`priority`
+  // `{stencil: ref}`: the first writer wins) or option 5 (`{biased: true}`: the least biased
+  // depth wins, the bias unit the bounding sphere's diameter, as the runtime's hierarchy
+  // draws its nodes); `priority.tint` colours them. Returns the impostors that could draw
+  // (facing the camera, not empty).
+  drawImpostors(gpu, list, camera, width, height, priority) {
     const gl = this.gl;
     const { program, uniforms: u } = this.ori;
     gl.useProgram(program);
     const march = gpu.pkg.march;
     const light = cameraLight(camera);
-    gl.enable(gl.STENCIL_TEST);
-    gl.stencilFunc(gl.NOTEQUAL, stencilRef, 0xff);
-    gl.stencilOp(gl.KEEP, gl.REPLACE, gl.REPLACE);
+    if (priority.biased) {
+      gl.disable(gl.STENCIL_TEST);
+    } else {
+      gl.enable(gl.STENCIL_TEST);
+      gl.stencilFunc(gl.NOTEQUAL, priority.stencil, 0xff);
+      gl.stencilOp(gl.KEEP, gl.REPLACE, gl.REPLACE);
+    }
+    const sphere = gpu.pkg.manifest.bounding_sphere;
+    gl.uniform1f(u.bias, priority.biased ? Math.fround((2.0 * sphere.radius) / 32.0) : 0.0);
+    gl.uniform4fv(u.depthModel, depthModel(camera));
     gl.enable(gl.CULL_FACE);
     gl.cullFace(gl.FRONT);
     gl.frontFace(gl.CCW);
     gl.uniform3fv(u.light, light);
     gl.uniform1f(u.height, height);
-    gl.uniform4fv(u.tint, tint || [1, 1, 1, 0]);
+    gl.uniform4fv(u.tint, priority.tint || [1, 1, 1, 0]);
     gl.uniform1i(u.depthMap, 0);
     gl.uniform1i(u.normalMap, 1);
     gl.uniform1i(u.albedoMap, 2);
@@ -680,6 +727,7 @@ class OriRenderer {
       gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
       gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH24_STENCIL8, width, height);
       const fb = gl.createFramebuffer();
+      this.owned.push(depth, fb);
       gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
       gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, texture, 0);
       gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_STENCIL_ATTACHMENT, gl.RENDERBUFFER, depth);
