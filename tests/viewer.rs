@@ -226,18 +226,23 @@ fn rust_verdict(bytes: &[u8]) -> String {
     }
 }
 
-/// A package with its manifest bytes edited (same length or longer within the padding) and
-/// the header's length and hash made to hold again.
+/// A package with its manifest bytes edited (same length, or longer within the padding and
+/// the tool's name) and the header's length and hash made to hold again.
 fn with_manifest(bytes: &[u8], edit: impl Fn(&str) -> String) -> Vec<u8> {
     let len = u64::from_le_bytes(bytes[16..24].try_into().unwrap()) as usize;
     let payload = u64::from_le_bytes(bytes[56..64].try_into().unwrap()) as usize;
     let json = std::str::from_utf8(&bytes[64..64 + len]).unwrap();
-    let edited = edit(json);
+    let mut edited = edit(json);
     assert_ne!(edited, json, "the edit changed nothing");
-    assert!(
-        64 + edited.len() <= payload,
-        "the edit does not fit the padding"
-    );
+    // Room for a longer edit: the tool's name shortened (to one character at least).
+    let over = (64 + edited.len()).saturating_sub(payload);
+    if over > 0 {
+        let tool = "\"tool\":\"";
+        let at = edited.find(tool).unwrap() + tool.len();
+        let len = edited[at..].find('"').unwrap();
+        assert!(over < len, "the edit does not fit the padding");
+        edited.replace_range(at..at + over, "");
+    }
     let mut out = bytes[..64].to_vec();
     out[16..24].copy_from_slice(&(edited.len() as u64).to_le_bytes());
     out[24..56].copy_from_slice(blake3::hash(edited.as_bytes()).as_bytes());
@@ -264,6 +269,11 @@ fn cases(single: &[u8], hierarchy: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
     vec![
         ("valid", single.to_vec()),
         ("valid-hierarchy", hierarchy.to_vec()),
+        // The edits below change only what they name: this one leaves a valid package.
+        (
+            "valid-edited",
+            with_manifest(single, |j| j.replacen("\"tool\":\"o", "\"tool\":\"O", 1)),
+        ),
         ("empty", Vec::new()),
         ("bad-magic", changed(0, b'X')),
         ("text-mode-transfer", changed(6, b'\n')),
@@ -313,6 +323,25 @@ fn cases(single: &[u8], hierarchy: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
                     "\"normal\":{\"format\":\"bc4\"",
                     1,
                 )
+            }),
+        ),
+        (
+            "f32-field-not-an-f32",
+            with_manifest(single, |j| {
+                // The first occupied value with digits an f32 cannot hold.
+                let at = j.find("\"occupied\":[").unwrap() + "\"occupied\":[".len();
+                let end = at + j[at..].find(',').unwrap();
+                format!("{}000000001{}", &j[..end], &j[end..])
+            }),
+        ),
+        (
+            "byte-order-mark",
+            with_manifest(single, |j| format!("\u{feff}{j}")),
+        ),
+        (
+            "params-integer-beyond-u64",
+            with_manifest(single, |j| {
+                j.replacen("\"margin\":2", "\"margin\":18446744073709551616", 1)
             }),
         ),
         ("damaged-hierarchy-node", hierarchy_texture),
