@@ -17,13 +17,26 @@ use serde_json::Value;
 /// Headless Chromium with SwiftShader's WebGL2, reading files beside the page, the page's
 /// DOM printed once its timers and loads have settled (virtual time).
 fn chromium_dom(user_dir: &Path, page: &Path, query_and_fragment: &str) -> String {
+    chromium_dom_with(
+        user_dir,
+        page,
+        query_and_fragment,
+        &["--allow-file-access-from-files"],
+    )
+}
+
+fn chromium_dom_with(
+    user_dir: &Path,
+    page: &Path,
+    query_and_fragment: &str,
+    extra: &[&str],
+) -> String {
     let out = Command::new("chromium")
         .args([
             "--headless",
             "--no-sandbox",
             "--use-angle=swiftshader",
             "--enable-unsafe-swiftshader",
-            "--allow-file-access-from-files",
             "--disable-quic",
             "--no-first-run",
             "--disable-background-networking",
@@ -32,6 +45,7 @@ fn chromium_dom(user_dir: &Path, page: &Path, query_and_fragment: &str) -> Strin
             "--virtual-time-budget=120000",
             "--dump-dom",
         ])
+        .args(extra)
         .arg(format!("--user-data-dir={}", user_dir.display()))
         .arg(format!("file://{}{query_and_fragment}", page.display()))
         .output()
@@ -56,6 +70,14 @@ fn test_result(dom: &str) -> Value {
     assert!(value.get("failed").is_none(), "the page failed: {value}");
     assert_eq!(value["errors"], serde_json::json!([]), "script errors");
     value
+}
+
+/// The `<div>` of the page with this id, its attributes and text.
+fn element<'a>(dom: &'a str, id: &str) -> &'a str {
+    dom.split(&format!("id=\"{id}\""))
+        .nth(1)
+        .and_then(|s| s.split("</div>").next())
+        .unwrap_or_default()
 }
 
 fn tail(s: &str) -> &str {
@@ -367,6 +389,11 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     );
     ok(&p.build_with_report(&[]));
     let viewer = p.path("out/report/viewer.html");
+    let page = fs::read_to_string(&viewer).unwrap();
+    assert!(
+        !page.contains("http://") && !page.contains("https://"),
+        "network resource"
+    );
     let index = fs::read_to_string(p.path("out/report/index.html")).unwrap();
     assert!(
         index.contains("viewer.html#bunny/bunny_npm_lowres.obj"),
@@ -450,6 +477,16 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
         assert_eq!(g["result"].as_str(), Some(kind.as_str()), "{file}");
     }
 
+    // A browser that will not read files beside a file:// page: the page says so and offers
+    // to open the package from disk.
+    let dom = chromium_dom_with(&p.path("chromium"), &viewer, "", &[]);
+    let error = element(&dom, "error");
+    assert!(
+        error.contains("display: block") && error.contains("did not read ../avocado/Avocado.ori"),
+        "{error}"
+    );
+    assert!(element(&dom, "open").contains("display: block"));
+
     // A damaged package is a readable error in the page, not a blank canvas.
     let package = p.path("out/bunny/bunny_npm_lowres.ori");
     let mut damaged = single.clone();
@@ -457,11 +494,7 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     damaged[at] ^= 1;
     fs::write(&package, damaged).unwrap();
     let dom = chromium_dom(&p.path("chromium"), &viewer, "#bunny/bunny_npm_lowres.obj");
-    let error = dom
-        .split("id=\"error\"")
-        .nth(1)
-        .and_then(|s| s.split("</div>").next())
-        .unwrap_or_default();
+    let error = element(&dom, "error");
     assert!(
         error.contains("display: block")
             && error.contains("bunny_npm_lowres.ori cannot be shown")
