@@ -487,6 +487,39 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
     );
     assert!(element(&dom, "open").contains("display: block"));
 
+    // A damaged mesh file costs the mesh views, with the reason, and the ORI is still drawn.
+    let report: Value =
+        serde_json::from_slice(&fs::read(p.path("out/report/report.json")).unwrap()).unwrap();
+    let bunny_pictures = report["assets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|a| a["name"] == "bunny/bunny_npm_lowres.obj")
+        .unwrap()["pictures"][0][1]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let folder = bunny_pictures.split('/').next().unwrap();
+    let mesh_file = p.path("out/report").join(folder).join("mesh.bin");
+    let mesh = fs::read(&mesh_file).unwrap();
+    fs::write(&mesh_file, &mesh[..mesh.len() - 1]).unwrap();
+    let dom = chromium_dom(
+        &p.path("chromium"),
+        &viewer,
+        "?show=ori,mesh#bunny/bunny_npm_lowres.obj",
+    );
+    assert!(!element(&dom, "error").contains("display: block"));
+    let status = element(&dom, "status");
+    assert!(
+        status.contains("no reference mesh (mesh file: its size does not match its counts)"),
+        "{status}"
+    );
+    assert!(
+        element(&dom, "view-info").contains("table entry"),
+        "{}",
+        element(&dom, "view-info")
+    );
+
     // A damaged package is a readable error in the page, not a blank canvas.
     let package = p.path("out/bunny/bunny_npm_lowres.ori");
     let mut damaged = single.clone();
