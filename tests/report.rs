@@ -9,26 +9,6 @@ use std::process::Command;
 
 use common::*;
 
-/// Chromium, headless, as CI runs it (`.ci/run` installs Debian's `chromium`).
-fn chromium(user_dir: &Path, args: &[&str], page: &Path) -> std::process::Output {
-    Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-        ])
-        .arg(format!("--user-data-dir={}", user_dir.display()))
-        .args(args)
-        .arg(format!("file://{}", page.display()))
-        .output()
-        .expect("chromium must be installed (Debian package `chromium`; .ci/run installs it)")
-}
-
 #[test]
 fn the_report_opens_in_a_browser_with_every_picture() {
     let p = Project::new(&["bunny", "box-vertex-colors", "glass-vase-flowers"]);
@@ -63,6 +43,7 @@ fn the_report_opens_in_a_browser_with_every_picture() {
         &p.path("chromium-dom"),
         &["--virtual-time-budget=10000", "--dump-dom"],
         &index,
+        "",
     );
     let dom = String::from_utf8_lossy(&dom.stdout);
     assert!(
@@ -82,6 +63,7 @@ fn the_report_opens_in_a_browser_with_every_picture() {
             &format!("--screenshot={}", shot.display()),
         ],
         &index,
+        "",
     );
     assert!(
         fs::metadata(&shot).unwrap().len() > 50_000,

@@ -31,25 +31,14 @@ fn chromium_dom_with(
     query_and_fragment: &str,
     extra: &[&str],
 ) -> String {
-    let out = Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--virtual-time-budget=120000",
-            "--dump-dom",
-        ])
-        .args(extra)
-        .arg(format!("--user-data-dir={}", user_dir.display()))
-        .arg(format!("file://{}{query_and_fragment}", page.display()))
-        .output()
-        .expect("chromium must be installed (Debian package `chromium`; .ci/run installs it)");
+    let mut args = vec![
+        "--use-angle=swiftshader",
+        "--enable-unsafe-swiftshader",
+        "--virtual-time-budget=120000",
+        "--dump-dom",
+    ];
+    args.extend_from_slice(extra);
+    let out = chromium(user_dir, &args, page, query_and_fragment);
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 

@@ -217,3 +217,24 @@ pub fn check_entry(bytes: Vec<u8>, what: &str) {
         "{what}"
     );
 }
+
+/// Headless Chromium, as CI runs it (`.ci/run` installs Debian's `chromium`), opening
+/// `file://{page}{query}` with `args` after the common flags.
+pub fn chromium(user_dir: &Path, args: &[&str], page: &Path, query: &str) -> Output {
+    Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+        ])
+        .arg(format!("--user-data-dir={}", user_dir.display()))
+        .args(args)
+        .arg(format!("file://{}{query}", page.display()))
+        .output()
+        .expect("chromium must be installed (Debian package `chromium`; .ci/run installs it)")
+}

@@ -395,7 +395,7 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
             h,
             "<p><a href=\"{}#{}\">Open in the interactive viewer</a> (orbit, zoom, the \
              reference mesh and the difference, drawn from the package in your browser)</p>",
-            crate::VIEWER,
+            crate::viewer::VIEWER,
             url_fragment(&a.name)
         );
     }
@@ -408,7 +408,7 @@ fn asset_section(h: &mut String, i: usize, a: &AssetSummary) {
     for note in &a.notes {
         let _ = writeln!(h, "<p class=\"note\">{}</p>", esc(note));
     }
-    if a.pictures.iter().any(|p| p.0.ends_with(" reference")) {
+    if a.has_reference_pictures() {
         h.push_str(
             "<h3>Reference mesh, ORI, difference</h3>\n<p class=\"muted\">Shaded with the \
              evaluator's light. Difference: red = the mesh covers, the ORI misses; blue = the \

@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 pub use pictures::{Picture, count_colour, error_colour};
 pub use relief::relief_set;
-pub use viewer::{MESH_FILE, VIEWER, mesh_bytes};
+use viewer::{MESH_FILE, mesh_bytes};
 
 /// How the report reads source models: under the same rules as the build (inside the asset
 /// root, regular files, size and texture limits).
@@ -222,6 +222,14 @@ pub struct AssetSummary {
     /// Why the package failed its check against `release.json`, if it did.
     #[serde(skip)]
     pub invalid: Option<String>,
+}
+
+impl AssetSummary {
+    /// Whether the source mesh was drawn beside the ORI (and so `mesh.bin` written, before
+    /// the reference pictures).
+    fn has_reference_pictures(&self) -> bool {
+        self.pictures.iter().any(|p| p.0.ends_with(" reference"))
+    }
 }
 
 /// What the report draws besides its pictures.
@@ -430,7 +438,8 @@ fn write_viewer(dir: &Path, summary: &ReportSummary) -> Result<(), String> {
             Some(viewer::ViewerAsset {
                 name: a.name.clone(),
                 package: format!("../{package}"),
-                mesh: viewer::has_mesh(&dir.join(&folder))
+                mesh: a
+                    .has_reference_pictures()
                     .then(|| format!("{folder}/{}", viewer::MESH_FILE)),
             })
         })

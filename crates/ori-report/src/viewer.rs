@@ -6,8 +6,6 @@
 //! `docs/FORMAT.md` and `docs/RUNTIME.md` alone: this crate only places them and lists the
 //! assets.
 
-use std::path::Path;
-
 use serde::Serialize;
 
 /// The viewer's file name in the report folder.
@@ -103,11 +101,11 @@ fn vertex_albedo(mesh: &ori_mesh::Mesh) -> Vec<[u8; 4]> {
                 if let (Some(t), Some(uv)) = (texture, mesh.uvs.as_ref().map(|u| u[i])) {
                     let texel = sample(t, uv);
                     for (c, t) in c.iter_mut().zip(&texel[..3]) {
-                        *c *= srgb_to_linear(*t);
+                        *c *= ori_math::srgb_to_linear(f64::from(*t) / 255.0) as f32;
                     }
                 }
             }
-            let e = |v: f32| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0).round() as u8;
+            let e = |v: f32| (ori_math::linear_to_srgb(f64::from(v)) * 255.0).round() as u8;
             [e(c[0]), e(c[1]), e(c[2]), 255]
         })
         .collect()
@@ -122,26 +120,4 @@ fn sample(t: &ori_mesh::Texture, uv: [f32; 2]) -> [u8; 4] {
     let (x, y) = (at(uv[0], t.width), at(uv[1], t.height));
     let o = (y * t.width as usize + x) * 4;
     [t.rgba8[o], t.rgba8[o + 1], t.rgba8[o + 2], t.rgba8[o + 3]]
-}
-
-fn srgb_to_linear(v: u8) -> f32 {
-    let c = f32::from(v) / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-fn linear_to_srgb(c: f32) -> f32 {
-    if c <= 0.003_130_8 {
-        c * 12.92
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// Whether a picture folder holds a viewer mesh.
-pub fn has_mesh(folder: &Path) -> bool {
-    folder.join(MESH_FILE).is_file()
 }

@@ -781,9 +781,11 @@ function readAnyPackage(bytes) {
 
 // ---- Directions (RUNTIME.md section 2) -----------------------------------------------------
 
-function normalize3(a) {
+// RUNTIME.md section 1's normalize: each component divided by the length; a zero vector is
+// returned as it is (`normalize0` of section 4).
+function normalize0(a) {
   const len = Math.sqrt(dot3(a, a));
-  return [a[0] / len, a[1] / len, a[2] / len];
+  return len > 0 ? [a[0] / len, a[1] / len, a[2] / len] : a;
 }
 
 // The 320 table directions, bit for bit: level 2 of the geodesic icosahedron.
@@ -797,7 +799,7 @@ function tableDirections() {
       }
     }
   }
-  const unitV = raw.map(normalize3);
+  const unitV = raw.map(normalize0);
   const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
   const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
   const adjacent = (i, j) => dot3(sub(raw[i], raw[j]), sub(raw[i], raw[j])) < 5.0;
@@ -816,15 +818,18 @@ function tableDirections() {
   for (let level = 0; level < 2; level++) {
     const next = [];
     for (const [a, b, c] of faces) {
-      const ab = normalize3(add(a, b));
-      const bc = normalize3(add(b, c));
-      const ca = normalize3(add(c, a));
+      const ab = normalize0(add(a, b));
+      const bc = normalize0(add(b, c));
+      const ca = normalize0(add(c, a));
       next.push([a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]);
     }
     faces = next;
   }
-  return faces.map(([a, b, c]) => normalize3(add(add(a, b), c)));
+  return faces.map(([a, b, c]) => normalize0(add(add(a, b), c)));
 }
+
+// Computed once: every package shares the table's directions.
+const TABLE_DIRECTIONS = tableDirections();
 
 // RUNTIME.md section 10.1: the entry for unit view direction `w` (lowest index on ties).
 function nearestEntry(directions, w) {

@@ -4,6 +4,12 @@
 // writer wins, with the stencil buffer), the hierarchy traversal of docs/FORMAT.md.
 "use strict";
 
+// Linear light to the sRGB bytes the canvas shows (the wgpu target encodes the same way).
+const SRGB_ENCODE = `vec3 srgbEncode(vec3 c) {
+  c = clamp(c, 0.0, 1.0);
+  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
+}`;
+
 const ORI_VERTEX = `#version 300 es
 precision highp float;
 precision highp int;
@@ -147,10 +153,7 @@ vec2 narrow(int k, float ox, float oy, float dx, float dy, vec2 span) {
   return vec2(start, last);
 }
 
-vec3 srgbEncode(vec3 c) {
-  c = clamp(c, 0.0, 1.0);
-  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
-}
+${SRGB_ENCODE}
 
 void main() {
   float px = gl_FragCoord.x;
@@ -249,10 +252,7 @@ in vec3 world;
 in vec3 colour;
 in vec3 normal;
 out vec4 color;
-vec3 srgbEncode(vec3 c) {
-  c = clamp(c, 0.0, 1.0);
-  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(vec3(0.0031308), c));
-}
+${SRGB_ENCODE}
 void main() {
   // A hierarchy leaf draws the model inside its cell only.
   if (any(lessThan(world, cellLo)) || any(greaterThan(world, cellHi))) discard;
@@ -306,11 +306,6 @@ void main() {
 }`;
 
 // ---- f64 geometry (RUNTIME.md sections 1 and 4) -------------------------------------------
-
-function normalize0(a) {
-  const len = Math.sqrt(dot3(a, a));
-  return len > 0 ? [a[0] / len, a[1] / len, a[2] / len] : a;
-}
 
 // `Frame::from_direction`: u horizontal, v up, d towards the viewer.
 function frameFromDirection(w) {
@@ -575,7 +570,7 @@ class OriRenderer {
       tops: this.texture(() => gl.texImage2D(gl.TEXTURE_2D, 0, gl.R8UI, m.columns.k, m.columns.k, 0, gl.RED_INTEGER, gl.UNSIGNED_BYTE, m.columns.tops)),
       cells: m.columns.k,
     }));
-    return { pkg, maps, directions: tableDirections() };
+    return { pkg, maps, directions: TABLE_DIRECTIONS };
   }
 
   // A viewer mesh (`mesh.bin`) on the GPU.
@@ -610,10 +605,12 @@ class OriRenderer {
     return nearestEntry(gpu.directions, viewDirection(camera, gpu.pkg.manifest.bounding_sphere.center));
   }
 
-  // Draw one ORI: its entry's impostors in list order.
+  // Draw one ORI: its entry's impostors in list order. Returns the entry and the impostors
+  // that could draw.
   drawOri(gpu, camera, width, height, priority) {
-    const entry = gpu.pkg.manifest.selection.entries[this.entryFor(gpu, camera)];
-    return this.drawImpostors(gpu, entry.impostors, camera, width, height, priority);
+    const entry = this.entryFor(gpu, camera);
+    const list = gpu.pkg.manifest.selection.entries[entry].impostors;
+    return { entry, drawn: this.drawImpostors(gpu, list, camera, width, height, priority) };
   }
 
   // Draw the impostors `list` of a loaded package in list order, under option 3 (`priority`
