@@ -469,7 +469,7 @@ fn configuration_type_errors_name_the_key_line_and_column() {
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
     assert!(
-        t.contains("line 14, column 10: `bake.margin`: invalid value: integer `-1`"),
+        t.contains("line 15, column 10: `bake.margin`: invalid value: integer `-1`"),
         "{t}"
     );
 
@@ -478,7 +478,7 @@ fn configuration_type_errors_name_the_key_line_and_column() {
     let t = text(&out);
     assert_eq!(out.status.code(), Some(2), "{t}");
     assert!(
-        t.contains("line 13, column 13: `overrides[0].select.s0`"),
+        t.contains("line 14, column 13: `overrides[0].select.s0`"),
         "{t}"
     );
 }

@@ -19,9 +19,10 @@ pub fn shared_models() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/models")
 }
 
-/// Selection measured on 64 x 64 views instead of 256 x 256: sixteen times less tracing, the
-/// same stages and artifacts. (Quality at the defaults is tested in ori-select.)
-pub const FAST: &str = "[select]\ns0 = 64\n";
+/// Selection measured on 64 x 64 views instead of 256 x 256, and each entry's region at its
+/// corners and edge midpoints only: twenty times less tracing, the same stages and artifacts.
+/// (Quality at the defaults is tested in ori-pipeline's `tests/ori.rs`.)
+pub const FAST: &str = "[select]\ns0 = 64\nregion_steps = 2\n";
 
 /// Placement off, unless a test's own configuration has a `[place]` table: the search bakes
 /// 340 candidate maps per asset. (`ori-place` tests the search, `build_assets.rs` the stage.)

@@ -377,7 +377,7 @@ fn select(runs: usize) -> Result<(), String> {
             let t = Instant::now();
             let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
                 .map_err(|e| e.to_string())?;
-            let plan = ori_select::MaskPlan::new(&evaluator, select.rule);
+            let plan = ori_select::MaskPlan::new(&evaluator, select);
             let masks = ori_select::all_view_masks(&evaluator, &plan).map_err(|e| e.to_string())?;
             tm.push(t.elapsed());
             let t = Instant::now();

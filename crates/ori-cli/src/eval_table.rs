@@ -43,9 +43,13 @@ pub struct Args {
     /// Coverage-error goal of `best:M`, percent of s0 x s0.
     #[arg(long)]
     goal_percent: Option<f64>,
-    /// Coverage-error goal of `best:M` at the edges of each entry's region, percent of s0 x s0.
+    /// Coverage-error goal of `best:M` over each entry's region, percent of s0 x s0.
     #[arg(long)]
     edge_goal_percent: Option<f64>,
+    /// Steps along each edge of an entry's triangle between the directions `best:M` measures
+    /// its region at (`[select] region_steps`).
+    #[arg(long)]
+    region_steps: Option<u32>,
     /// Evaluation image edge s0.
     #[arg(long)]
     s0: Option<u32>,
@@ -73,6 +77,7 @@ pub fn run(args: Args) -> ExitCode {
         rule: args.best,
         goal_percent: args.goal_percent.unwrap_or(defaults.goal_percent),
         edge_goal_percent: args.edge_goal_percent.unwrap_or(defaults.edge_goal_percent),
+        region_steps: args.region_steps.unwrap_or(defaults.region_steps),
         s0: args.s0.unwrap_or(defaults.s0),
         linear_steps: args.linear_steps.unwrap_or(defaults.linear_steps),
         binary_steps: args.binary_steps.unwrap_or(defaults.binary_steps),

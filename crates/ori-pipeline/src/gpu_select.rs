@@ -48,7 +48,7 @@ pub fn select(
         binary_steps: params.binary_steps,
         wall_threshold: params.wall_threshold as f32,
     });
-    let plan = MaskPlan::new(&evaluator, params.rule);
+    let plan = MaskPlan::new(&evaluator, params);
     let mut masks = Vec::new();
     for (&w, impostors) in plan.directions.iter().zip(&plan.impostors) {
         let view = evaluator.view(w).map_err(|e| e.to_string())?;

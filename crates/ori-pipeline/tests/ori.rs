@@ -69,11 +69,12 @@ fn holds(relative: &str, avg: f64, max: f64, impostors: f64) -> Ori {
     ori
 }
 
-/// Held-out average %, maximum %, impostors per view and the PLT's lower bound, each about
-/// 10 % from what was measured: bunny 0.082 / 0.301 %, 2.81, PLT 333; armadillo 0.103 /
-/// 0.311 %, 3.13, PLT 321.
-const BUNNY: (f64, f64, f64, f64) = (0.09, 0.33, 3.1, 300.0);
-const ARMADILLO: (f64, f64, f64, f64) = (0.113, 0.34, 3.45, 290.0);
+/// Held-out average %, maximum %, impostors per view and the PLT's lower bound. Measured:
+/// bunny 0.085 / 0.285 %, 2.75, PLT 350; armadillo 0.105 / 0.296 %, 3.10, PLT 338. The
+/// averages and maxima are held to issue 21's targets (0.12 %, 0.30 %), as is the bunny's
+/// impostors per view (3.0); the armadillo's 3.10 does not reach it yet.
+const BUNNY: (f64, f64, f64, f64) = (0.12, 0.30, 3.0, 330.0);
+const ARMADILLO: (f64, f64, f64, f64) = (0.12, 0.30, 3.2, 330.0);
 
 #[test]
 fn bunny_quality() {

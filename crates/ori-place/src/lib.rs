@@ -201,7 +201,7 @@ fn place_scored(
     candidates.extend(&table);
     // The table's views, then the corners of the triangles their entries serve.
     let mut measured = table;
-    measured.extend(ori_views::evaluation_regions().corners());
+    measured.extend(ori_views::evaluation_corners());
     let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
     let evaluator = Evaluator::new(mesh, &planned, measure.eval)?.part_of(measure.whole);
     let views: Vec<OrthoView> = measured

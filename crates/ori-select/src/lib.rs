@@ -14,10 +14,10 @@
 //! # Each entry serves a region
 //! The runtime draws, at any direction, the entry of the nearest evaluation direction, so an
 //! entry serves about its spherical triangle of directions. `best:M` therefore measures a
-//! subset in the entry's own view and at the triangle's three corners and three edge midpoints
-//! ([`ori_views::evaluation_regions`], 642 views shared by neighbouring entries), and a subset
-//! reaches the goal only when it does in its own view (`goal_percent`) and at every one of
-//! those (`edge_goal_percent`). The entry's `missed` stays the error in its
+//! subset in the entry's own view and at a grid of 15 directions over the triangle
+//! ([`ori_views::evaluation_regions`], 2,562 views, the corners and edge points shared by
+//! neighbouring entries), and a subset reaches the goal only when it does in its own view
+//! (`goal_percent`) and at every one of those (`edge_goal_percent`). The entry's `missed` stays the error in its
 //! own view (the table's figures); quality is reported at held-out directions ([`held_out`]).
 //!
 //! Work (parallel over views, collected in order): the [`MaskPlan`] lists the views and the
@@ -203,8 +203,7 @@ impl Selection {
 }
 
 /// The views selection measures: the evaluation directions, each with its `M` closest facing
-/// impostors (closest first), then for `best:M` the corners and edge midpoints of the region
-/// each entry serves ([`ori_views::evaluation_regions`]), each with every impostor the
+/// impostors (closest first), then for `best:M` the grid over the region each entry serves ([`ori_views::evaluation_regions`]), each with every impostor the
 /// entries around it may choose (ascending). Computed on the CPU, whichever backend traces.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaskPlan {
@@ -215,15 +214,15 @@ pub struct MaskPlan {
 }
 
 impl MaskPlan {
-    pub fn new(evaluator: &Evaluator<'_>, rule: Rule) -> MaskPlan {
-        let m = rule.m() as usize;
+    pub fn new(evaluator: &Evaluator<'_>, params: &SelectParams) -> MaskPlan {
+        let m = params.rule.m() as usize;
         let mut directions = ori_views::evaluation_directions();
         let mut impostors: Vec<Vec<usize>> = directions
             .iter()
             .map(|&w| evaluator.facing(w).into_iter().take(m).collect())
             .collect();
-        if let Rule::Best(_) = rule {
-            let regions = ori_views::evaluation_regions();
+        if let Rule::Best(_) = params.rule {
+            let regions = ori_views::evaluation_regions(params.region_steps as usize);
             let mut around = vec![Vec::new(); regions.samples.len()];
             for (entry, samples) in regions.of_direction.iter().enumerate() {
                 for &s in samples {
@@ -288,7 +287,7 @@ pub fn select_from_masks(
     };
     let count = ori_views::evaluation_directions().len();
     let regions = match params.rule {
-        Rule::Best(_) => ori_views::evaluation_regions().of_direction,
+        Rule::Best(_) => ori_views::evaluation_regions(params.region_steps as usize).of_direction,
         Rule::Closest(_) => Vec::new(),
     };
     let expected = count + regions.iter().flatten().max().map_or(0, |&s| s + 1);
@@ -340,7 +339,7 @@ pub fn select_with(
     params: &SelectParams,
 ) -> Result<Selection, SelectError> {
     params.validate()?;
-    let plan = MaskPlan::new(evaluator, params.rule);
+    let plan = MaskPlan::new(evaluator, params);
     let masks = all_view_masks(evaluator, &plan)?;
     select_from_masks(&masks, params, evaluator.set().maps.len())
 }

@@ -88,10 +88,13 @@ pub struct SelectParams {
     /// Coverage-error goal of `best:M` in an entry's own view, in percent of s0 x s0
     /// (default 0.2).
     pub goal_percent: f64,
-    /// Coverage-error goal of `best:M` at the corners and edge midpoints of the region an
-    /// entry serves, the farthest directions that draw it (default 0.25; `goal_percent` to
-    /// 100).
+    /// Coverage-error goal of `best:M` at the grid of directions over the region an entry
+    /// serves, `ori_views::evaluation_regions` (default 0.27; `goal_percent` to 100).
     pub edge_goal_percent: f64,
+    /// Steps along each edge of an entry's triangle between the directions `best:M` measures
+    /// its region at (default 4: 15 directions per entry; 2: its corners and edge midpoints;
+    /// 1 to 8).
+    pub region_steps: u32,
     /// Evaluation image edge s0 (default 256).
     pub s0: u32,
     /// Linear-search steps of the runtime rule (default 16).
@@ -109,7 +112,8 @@ impl Default for SelectParams {
         SelectParams {
             rule: Rule::Best(8),
             goal_percent: 0.2,
-            edge_goal_percent: 0.25,
+            edge_goal_percent: 0.27,
+            region_steps: 4,
             s0: e.s0,
             linear_steps: e.linear_steps,
             binary_steps: e.binary_steps,
@@ -150,6 +154,12 @@ impl SelectParams {
             return Err(SelectError::Params(format!(
                 "select.edge_goal_percent = {} must be select.goal_percent ({}) to 100",
                 self.edge_goal_percent, self.goal_percent
+            )));
+        }
+        if !(1..=8).contains(&self.region_steps) {
+            return Err(SelectError::Params(format!(
+                "select.region_steps = {} must be 1 to 8",
+                self.region_steps
             )));
         }
         self.eval_params()

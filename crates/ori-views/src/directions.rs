@@ -142,57 +142,72 @@ pub fn evaluation_directions() -> Vec<[f64; 3]> {
 }
 
 /// The directions around each evaluation direction that the runtime serves from its table
-/// entry: the corners and edge midpoints of its spherical triangle (the lookup picks the
-/// nearest entry, so each entry serves about its triangle, and these are its farthest points).
-/// None of them is a held-out direction (those are triangle centroids, or random).
+/// entry (the lookup picks the nearest entry, so each entry serves about its spherical
+/// triangle): a grid over the triangle with `steps` steps along each edge. The error of a
+/// fixed subset changes smoothly but not linearly over a triangle (on the Stanford bunny it
+/// peaked between a corner and the centre, where corners and edge midpoints did not look),
+/// so a finer grid leaves less to chance between its points. None of the samples is a
+/// held-out direction (those are the centroids of the next subdivision's triangles, or
+/// random) or an evaluation direction.
 #[derive(Clone, Debug, PartialEq)]
 pub struct EvaluationRegions {
-    /// Each corner or midpoint once (neighbouring triangles share them), in order of first
-    /// use by the evaluation directions.
+    /// Each grid point once (neighbouring triangles share corners and edge points), in order
+    /// of first use by the evaluation directions.
     pub samples: Vec<[f64; 3]>,
-    /// For evaluation direction `i`: its three corners, then its three edge midpoints, as
-    /// indices into `samples`.
-    pub of_direction: Vec<[usize; 6]>,
+    /// For evaluation direction `i`: its three corners, then the other grid points of its
+    /// triangle, as indices into `samples`.
+    pub of_direction: Vec<Vec<usize>>,
 }
 
-impl EvaluationRegions {
-    /// The samples that are a corner of some triangle, in sample order: the directions
-    /// farthest from every evaluation direction, where the runtime's nearest entry serves a
-    /// view least well.
-    pub fn corners(&self) -> Vec<[f64; 3]> {
-        let mut corner = vec![false; self.samples.len()];
-        for samples in &self.of_direction {
-            for &s in &samples[..3] {
-                corner[s] = true;
-            }
-        }
-        self.samples
-            .iter()
-            .zip(corner)
-            .filter_map(|(&p, c)| c.then_some(p))
-            .collect()
-    }
-}
-
-/// [`EvaluationRegions`] of [`evaluation_directions`] (162 corners and 480 midpoints).
-pub fn evaluation_regions() -> EvaluationRegions {
+/// [`EvaluationRegions`] of [`evaluation_directions`], `steps` (at least 1) steps along each
+/// edge. For triangle `(a, b, c)`: the corners `a, b, c`, then `normalize((i a + j b) + k c)`
+/// for `i` from `steps - 1` down to 0 and `j` from `steps - i` down to 0, `k = steps - i - j`,
+/// the corners and the centre (the evaluation direction itself) left out. With 2 steps: 162
+/// corners and 480 edge midpoints; with 4: 162 corners, 1440 edge points and 960 inner points.
+pub fn evaluation_regions(steps: usize) -> EvaluationRegions {
+    let steps = steps.max(1);
     let mut samples = Vec::new();
     let mut index = std::collections::HashMap::new();
     let mut of_direction = Vec::new();
     for [a, b, c] in geodesic_triangles(2) {
-        // Shared corners and midpoints are computed from the same endpoints, so equal bits.
-        let points = [a, b, c, midpoint(a, b), midpoint(b, c), midpoint(c, a)];
-        of_direction.push(points.map(|p| {
-            *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
-                samples.push(p);
-                samples.len() - 1
+        let mut points = vec![a, b, c];
+        for i in (0..steps).rev() {
+            for j in (0..=steps - i).rev() {
+                let k = steps - i - j;
+                if j == steps || k == steps || (i == j && j == k) {
+                    continue;
+                }
+                // Integer weights; a zero weight adds exact zeros, so the neighbouring
+                // triangle computes an edge point with equal bits.
+                let [wi, wj, wk] = [i, j, k].map(|w| w as f64);
+                points.push(normalize(add(
+                    add(scale(a, wi), scale(b, wj)),
+                    scale(c, wk),
+                )));
+            }
+        }
+        let indices = points
+            .iter()
+            .map(|p| {
+                *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
+                    samples.push(*p);
+                    samples.len() - 1
+                })
             })
-        }));
+            .collect();
+        of_direction.push(indices);
     }
     EvaluationRegions {
         samples,
         of_direction,
     }
+}
+
+/// The 162 corners of the evaluation triangles, in order of first use: the directions
+/// farthest from every evaluation direction, where the runtime's nearest entry serves a view
+/// least well.
+pub fn evaluation_corners() -> Vec<[f64; 3]> {
+    evaluation_regions(1).samples
 }
 
 /// Sizes of the regularly spaced sets: the axis box, then the icosahedron levels 0 to 4.
@@ -218,6 +233,10 @@ pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+fn scale(a: [f64; 3], s: f64) -> [f64; 3] {
+    [a[0] * s, a[1] * s, a[2] * s]
 }
 
 pub(crate) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -279,35 +298,43 @@ mod tests {
     }
 
     #[test]
-    fn regions_are_the_triangles_of_the_evaluation_directions() {
-        let regions = evaluation_regions();
+    fn regions_are_grids_over_the_triangles_of_the_evaluation_directions() {
         let directions = evaluation_directions();
-        // Euler: 162 vertices and 480 edges of the 320 triangles, each sample once.
-        assert_eq!(regions.samples.len(), 162 + 480);
-        assert_eq!(regions.of_direction.len(), directions.len());
         let triangles = geodesic_triangles(2);
         let held_out = held_out_directions(DEFAULT_HELD_OUT_SEED);
-        let corners = regions.corners();
+        let corners = evaluation_corners();
         assert_eq!(corners.len(), 162);
-        for (i, samples) in regions.of_direction.iter().enumerate() {
-            for s in &samples[..3] {
-                assert!(corners.contains(&regions.samples[*s]));
-            }
-            for &s in samples {
-                let p = regions.samples[s];
-                // On the triangle's boundary, and nearer to its own direction than to any
-                // entry outside the neighbouring triangles.
-                assert!(inside(p, triangles[i]), "direction {i}");
-                let own = dot(p, directions[i]);
-                let beaten = directions
-                    .iter()
-                    .filter(|&&d| dot(p, d) > own + 1e-9)
-                    .count();
-                assert!(
-                    beaten <= 5,
-                    "direction {i}, sample {s}: {beaten} nearer entries"
-                );
-                assert!(!held_out.contains(&p) && !directions.contains(&p));
+        for steps in [1, 2, 3, 4] {
+            let regions = evaluation_regions(steps);
+            // Euler: 162 vertices and 480 edges of the 320 triangles; each sample once.
+            let inner = (steps - 1) * steps.saturating_sub(2) / 2 - usize::from(steps == 3);
+            assert_eq!(
+                regions.samples.len(),
+                162 + (steps - 1) * 480 + inner * 320,
+                "{steps} steps"
+            );
+            assert_eq!(regions.of_direction.len(), directions.len());
+            for (i, samples) in regions.of_direction.iter().enumerate() {
+                assert_eq!(samples.len(), 3 + 3 * (steps - 1) + inner);
+                for s in &samples[..3] {
+                    assert!(corners.contains(&regions.samples[*s]));
+                }
+                for &s in samples {
+                    let p = regions.samples[s];
+                    // In the triangle, and nearer to its own direction than to any entry
+                    // outside the neighbouring triangles.
+                    assert!(inside(p, triangles[i]), "direction {i}");
+                    let own = dot(p, directions[i]);
+                    let beaten = directions
+                        .iter()
+                        .filter(|&&d| dot(p, d) > own + 1e-9)
+                        .count();
+                    assert!(
+                        beaten <= 5,
+                        "direction {i}, sample {s}: {beaten} nearer entries"
+                    );
+                    assert!(!held_out.contains(&p) && !directions.contains(&p));
+                }
             }
         }
     }

@@ -30,7 +30,8 @@ pub use coverage::{
 };
 pub use directions::{
     DEFAULT_HELD_OUT_SEED, EvaluationRegions, HELD_OUT_RANDOM, HELD_OUT_REGULAR, axis_directions,
-    evaluation_directions, evaluation_regions, held_out_directions, icosahedron_directions,
+    evaluation_corners, evaluation_directions, evaluation_regions, held_out_directions,
+    icosahedron_directions,
 };
 pub use entropy::{BoundingSphere, viewpoint_entropy};
 pub use params::{Strategy, ViewParams};

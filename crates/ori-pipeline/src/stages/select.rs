@@ -75,8 +75,9 @@ impl PipelineStage for Select {
     /// 2: the linear search spans the columns the ray crosses (`ori_eval::march::Columns`).
     /// 3: single-sided materials are culled from behind in the reference.
     /// 4: `best:M` subsets are chosen over each entry's region of directions.
+    /// 5: the region is a grid over the entry's triangle, not only its corners and midpoints.
     /// (BC4 packages: measured on the decoded depth, `shipped_depth`, a key of its own.)
-    const VERSION: u32 = 4;
+    const VERSION: u32 = 5;
     type Params = SelectJob;
 
     fn run(&self, params: SelectJob, job: &mut JobContext<'_>) -> Result<(), StageError> {

@@ -69,7 +69,11 @@ pub fn build(relative: &str, resolution: u32, depth: TextureFormat) -> Built {
         ..Default::default()
     };
     let set = ori_bake::bake(&mesh, &plan.directions, &bake).expect("bake");
-    let params = SelectParams::default();
+    // Any table serves parity; the corners and edge midpoints of each region are enough.
+    let params = SelectParams {
+        region_steps: 2,
+        ..Default::default()
+    };
     let selection = ori_select::select(&mesh, &set, &params).expect("select");
     let plt = ori_plt::estimate(selection.s0, &selection.missed());
     let textures: Vec<ImpostorTextures> = set.maps.iter().map(|m| compress(m, depth)).collect();
