@@ -11,7 +11,7 @@
 //!
 //! # The search
 //! - **Views.** The 320 evaluation directions (the selection table's), then the 162 corners
-//!   of the triangles their entries serve (`ori_views::EvaluationRegions::corners`): the
+//!   of the triangles their entries serve (`ori_views::evaluation_corners`): the
 //!   directions farthest from every table entry, where the runtime draws a view with
 //!   impostors chosen for another. A view the table's directions alone judged drawable can
 //!   miss a gap that only shows between them.

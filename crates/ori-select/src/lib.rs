@@ -14,11 +14,12 @@
 //! # Each entry serves a region
 //! The runtime draws, at any direction, the entry of the nearest evaluation direction, so an
 //! entry serves about its spherical triangle of directions. `best:M` therefore measures a
-//! subset in the entry's own view and at a grid of 15 directions over the triangle
-//! ([`ori_views::evaluation_regions`], 2,562 views, the corners and edge points shared by
-//! neighbouring entries), and a subset reaches the goal only when it does in its own view
-//! (`goal_percent`) and at every one of those (`edge_goal_percent`). The entry's `missed` stays the error in its
-//! own view (the table's figures); quality is reported at held-out directions ([`held_out`]).
+//! subset in the entry's own view and at a grid of directions over the triangle
+//! ([`ori_views::evaluation_regions`]; at the default `region_steps = 4`, 15 per entry and
+//! 2,562 views in all, the corners and edge points shared by neighbouring entries), and a
+//! subset reaches the goal only when it does in its own view (`goal_percent`) and at every
+//! one of those (`edge_goal_percent`). The entry's `missed` stays the error in its own view
+//! (the table's figures); quality is reported at held-out directions ([`held_out`]).
 //!
 //! Work (parallel over views, collected in order): the [`MaskPlan`] lists the views and the
 //! impostors to trace in each; the mesh's coverage and each listed impostor's coverage mask
@@ -203,8 +204,9 @@ impl Selection {
 }
 
 /// The views selection measures: the evaluation directions, each with its `M` closest facing
-/// impostors (closest first), then for `best:M` the grid over the region each entry serves ([`ori_views::evaluation_regions`]), each with every impostor the
-/// entries around it may choose (ascending). Computed on the CPU, whichever backend traces.
+/// impostors (closest first), then for `best:M` the grid over the region each entry serves
+/// ([`ori_views::evaluation_regions`]), each with every impostor the entries around it may
+/// choose (ascending). Computed on the CPU, whichever backend traces.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaskPlan {
     /// View directions, in order.
