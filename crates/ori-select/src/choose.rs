@@ -1,4 +1,4 @@
-//! The subset search of one view: masks in, ordered impostor list out.
+//! The subset search of one table entry: masks in, ordered impostor list out.
 
 use ori_eval::Mask;
 
@@ -62,67 +62,177 @@ pub struct Goals {
 /// choice's `missed` is the error in `own`.
 pub fn choose_region(own: &ViewMasks, region: &[&ViewMasks], rule: Rule, goals: Goals) -> Choice {
     let k = own.candidates.len().min(rule.m() as usize);
-    let views: Vec<Measured<'_>> = std::iter::once(own)
-        .chain(region.iter().copied())
-        .map(|v| Measured::of(v, own))
-        .collect();
+    let ids: Vec<usize> = own.candidates[..k].iter().map(|c| c.0).collect();
+    let views = Given(
+        std::iter::once(own)
+            .chain(region.iter().copied())
+            .map(|v| Measured::of(v, &ids))
+            .collect(),
+    );
+    let every = views.0.len();
+    choose_with(&views, &ids, rule, goals, every)
+}
+
+/// The masks one entry's choice reads, by view (0: the entry's own, then its region) and by
+/// candidate (`bit`: the entry's candidate `bit`, closest first).
+pub(crate) trait EntryMasks {
+    fn view_count(&self) -> usize;
+    fn reference(&self, view: usize) -> &[u64];
+    /// The mask of candidate `bit` in `view`; `None`: none given, nothing drawn.
+    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]>;
+
+    /// Coverage error in `view` of the union of the candidates in bit set `subset`.
+    fn missed(&self, view: usize, subset: u32) -> u32 {
+        let bits = 32 - subset.leading_zeros() as usize;
+        self.missed_where(view, bits, |bit| subset >> bit & 1 != 0)
+    }
+
+    /// Coverage error in `view` of the union of the first `k` candidates that `chosen`
+    /// accepts.
+    fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32 {
+        let members: Vec<&[u64]> = (0..k)
+            .filter(|&bit| chosen(bit))
+            .filter_map(|bit| self.candidate(view, bit))
+            .collect();
+        self.reference(view)
+            .iter()
+            .enumerate()
+            .map(|(w, &r)| {
+                let union = members.iter().fold(0u64, |acc, m| acc | m[w]);
+                (r & !union).count_ones()
+            })
+            .sum()
+    }
+}
+
+/// [`choose_region`]'s rule on masks from `masks`, for the candidates `ids` (closest first).
+///
+/// The views before `bound` (at least the own view) are measured for every subset; the
+/// others only for the subsets that can still win, in order of their error in those first
+/// views, a lower bound of their error in all of them. So where `masks` traces a candidate's
+/// mask when it is first read, the views beyond `bound` cost only what the search reads, and
+/// the choice is the same for any `bound`.
+pub(crate) fn choose_with(
+    masks: &impl EntryMasks,
+    ids: &[usize],
+    rule: Rule,
+    goals: Goals,
+    bound: usize,
+) -> Choice {
+    let k = ids.len();
     if let Rule::Closest(_) = rule {
         // Up to MAX_CLOSEST candidates: more than a subset's bits hold.
         return Choice {
-            impostors: own.candidates[..k].iter().map(|c| c.0).collect(),
-            missed: views[0].missed_where(|bit| bit < k),
+            impostors: ids.to_vec(),
+            missed: masks.missed_where(0, k, |_| true),
         };
     }
-    // best:M has M <= MAX_BEST, so a subset is a bit set in a u32. Subsets are ordered by
-    // (over a goal, error, size, sorted impostor indices): the rule's order within a size
-    // and, when no size reaches the goals, over all sizes.
-    let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
-    let key = |subset: u32| {
-        let missed: Vec<u32> = views.iter().map(|v| v.missed(subset)).collect();
-        let over = missed[0] > goals.own || missed[1..].iter().any(|&m| m > goals.edge);
-        let worst = missed.iter().copied().max().unwrap_or(0);
-        let total: u64 = missed.iter().map(|&m| u64::from(m)).sum();
-        let mut sorted = indices_of(own, subset);
-        sorted.sort_unstable();
-        (over, worst, total, subset.count_ones(), sorted, subset)
-    };
-    let mut overall = None;
-    let mut reached = None;
-    for size in 1..=k as u32 {
-        let best = (1..=all)
-            .filter(|s| s.count_ones() == size)
-            .map(key)
-            .min()
-            .expect("a subset of every size up to k");
-        if !best.0 {
-            reached = Some(best);
-            break;
-        }
-        if overall.as_ref().is_none_or(|o| best < *o) {
-            overall = Some(best);
-        }
-    }
-    let chosen = reached.or(overall).map_or(0, |b| b.5);
+    let chosen = search_best(masks, ids, goals, bound);
     Choice {
-        impostors: indices_of(own, chosen),
-        missed: views[0].missed(chosen),
+        impostors: indices_of(ids, chosen),
+        missed: masks.missed(0, chosen),
     }
 }
+
+/// A subset's error over the views measured so far.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+struct Measure {
+    worst: u32,
+    total: u64,
+    sorted: Vec<usize>,
+    subset: u32,
+}
+
+impl Measure {
+    fn new(ids: &[usize], subset: u32) -> Measure {
+        let mut sorted = indices_of(ids, subset);
+        sorted.sort_unstable();
+        Measure {
+            worst: 0,
+            total: 0,
+            sorted,
+            subset,
+        }
+    }
+
+    fn add(&mut self, missed: u32) {
+        self.worst = self.worst.max(missed);
+        self.total += u64::from(missed);
+    }
+
+    /// What every view not yet measured can only raise.
+    fn score(&self) -> (u32, u64) {
+        (self.worst, self.total)
+    }
+}
+
+/// `best:M`'s subset (a bit set over `ids`), in [`choose_region`]'s order.
+fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usize) -> u32 {
+    let k = ids.len();
+    let views = masks.view_count();
+    let bound = bound.clamp(1, views);
+    let goal = |view: usize| if view == 0 { goals.own } else { goals.edge };
+    // best:M has M <= MAX_BEST, so a subset is a bit set in a u32.
+    let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
+    let within_goals = |m: &mut Measure, view_range: std::ops::Range<usize>| {
+        view_range.into_iter().all(|view| {
+            let missed = masks.missed(view, m.subset);
+            m.add(missed);
+            missed <= goal(view)
+        })
+    };
+    for size in 1..=k as u32 {
+        let mut open: Vec<Measure> = (1..=all)
+            .filter(|s| s.count_ones() == size)
+            .map(|subset| Measure::new(ids, subset))
+            .filter_map(|mut m| within_goals(&mut m, 0..bound).then_some(m))
+            .collect();
+        open.sort_unstable();
+        let mut best: Option<Measure> = None;
+        'open: for mut m in open {
+            if best.as_ref().is_some_and(|b| m.score() > b.score()) {
+                break;
+            }
+            for view in bound..views {
+                let missed = masks.missed(view, m.subset);
+                m.add(missed);
+                if missed > goal(view) || best.as_ref().is_some_and(|b| m.score() > b.score()) {
+                    continue 'open;
+                }
+            }
+            if best.as_ref().is_none_or(|b| m < *b) {
+                best = Some(m);
+            }
+        }
+        if let Some(b) = best {
+            return b.subset;
+        }
+    }
+    // No subset reaches the goals: the least error over all views, the smaller on ties.
+    (1..=all)
+        .map(|subset| {
+            let mut m = Measure::new(ids, subset);
+            (0..views).for_each(|view| m.add(masks.missed(view, subset)));
+            (m.worst, m.total, subset.count_ones(), m.sorted, subset)
+        })
+        .min()
+        .map_or(0, |m| m.4)
+}
+
+/// Masks given in full ([`choose_region`]).
+struct Given<'a>(Vec<Measured<'a>>);
 
 /// One view's masks lined up with the candidates of the entry being chosen.
 struct Measured<'a> {
     reference: &'a [u64],
-    /// The mask of candidate `bit` of the entry in this view (`None`: none given, nothing
-    /// drawn).
     candidates: Vec<Option<&'a [u64]>>,
 }
 
 impl<'a> Measured<'a> {
-    fn of(view: &'a ViewMasks, own: &ViewMasks) -> Measured<'a> {
-        let candidates = own
-            .candidates
+    fn of(view: &'a ViewMasks, ids: &[usize]) -> Measured<'a> {
+        let candidates = ids
             .iter()
-            .map(|(id, _)| {
+            .map(|id| {
                 view.candidates
                     .iter()
                     .find(|(i, _)| i == id)
@@ -134,36 +244,135 @@ impl<'a> Measured<'a> {
             candidates,
         }
     }
+}
 
-    /// Coverage error of the union of the candidates in bit set `subset`.
-    fn missed(&self, subset: u32) -> u32 {
-        self.missed_where(|bit| subset >> bit & 1 != 0)
+impl EntryMasks for Given<'_> {
+    fn view_count(&self) -> usize {
+        self.0.len()
     }
 
-    /// Coverage error of the union of the candidates whose position `chosen` accepts.
-    fn missed_where(&self, chosen: impl Fn(usize) -> bool) -> u32 {
-        let members: Vec<&[u64]> = self
-            .candidates
-            .iter()
-            .enumerate()
-            .filter(|(bit, _)| chosen(*bit))
-            .filter_map(|(_, m)| *m)
-            .collect();
-        self.reference
-            .iter()
-            .enumerate()
-            .map(|(w, &r)| {
-                let union = members.iter().fold(0u64, |acc, m| acc | m[w]);
-                (r & !union).count_ones()
-            })
-            .sum()
+    fn reference(&self, view: usize) -> &[u64] {
+        self.0[view].reference
+    }
+
+    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
+        self.0[view].candidates[bit]
     }
 }
 
 /// Impostor indices of the candidates in bit set `subset`, closest first.
-fn indices_of(masks: &ViewMasks, subset: u32) -> Vec<usize> {
-    (0..masks.candidates.len())
+fn indices_of(ids: &[usize], subset: u32) -> Vec<usize> {
+    (0..ids.len())
         .filter(|&bit| subset >> bit & 1 != 0)
-        .map(|bit| masks.candidates[bit].0)
+        .map(|bit| ids[bit])
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small portable generator (xorshift64*), so the cases are the same everywhere.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        }
+
+        fn below(&mut self, n: u64) -> u64 {
+            self.next() % n
+        }
+    }
+
+    /// A 4 x 4 mask of pixels each set with probability `percent`.
+    fn random_mask(rng: &mut Rng, percent: u64) -> Mask {
+        let mut m = Mask::new(4);
+        (0..16)
+            .filter(|_| rng.below(100) < percent)
+            .for_each(|i| m.set(i));
+        m
+    }
+
+    /// Counts the masks read, as the lazy source traces them.
+    struct Counted<'a>(
+        Given<'a>,
+        std::cell::RefCell<std::collections::BTreeSet<(usize, usize)>>,
+    );
+
+    impl EntryMasks for Counted<'_> {
+        fn view_count(&self) -> usize {
+            self.0.view_count()
+        }
+        fn reference(&self, view: usize) -> &[u64] {
+            self.0.reference(view)
+        }
+        fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
+            self.1.borrow_mut().insert((view, bit));
+            self.0.candidate(view, bit)
+        }
+    }
+
+    #[test]
+    fn the_choice_does_not_depend_on_how_many_views_bound_the_search() {
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        let (mut reached, mut skipped) = (0, 0);
+        for case in 0..3000 {
+            let k = 1 + rng.below(6) as usize;
+            let ids: Vec<usize> = (0..k).map(|i| 20 - 2 * i - rng.below(2) as usize).collect();
+            let mut views = Vec::new();
+            for _ in 0..1 + rng.below(9) {
+                let reference = random_mask(&mut rng, 90);
+                let mut candidates = Vec::new();
+                for &i in &ids {
+                    // Now and then a view lacks a candidate's mask: it draws nothing there.
+                    if rng.below(10) > 0 {
+                        candidates.push((i, random_mask(&mut rng, 55)));
+                    }
+                }
+                views.push(ViewMasks {
+                    reference,
+                    candidates,
+                });
+            }
+            let goals = Goals {
+                own: rng.below(4) as u32,
+                edge: rng.below(6) as u32,
+            };
+            let given = || Given(views.iter().map(|v| Measured::of(v, &ids)).collect());
+            let every = views.len();
+            let expected = choose_with(&given(), &ids, Rule::Best(6), goals, every);
+            for bound in 1..every {
+                let counted = Counted(given(), Default::default());
+                let got = choose_with(&counted, &ids, Rule::Best(6), goals, bound);
+                assert_eq!(got, expected, "case {case}, bound {bound}");
+                let read = counted.1.borrow().len();
+                let present = (0..every)
+                    .flat_map(|v| (0..k).map(move |b| (v, b)))
+                    .filter(|&(v, b)| counted.0.candidate(v, b).is_some())
+                    .count();
+                if read < present {
+                    skipped += 1;
+                }
+            }
+            let reaches = |s: u32| {
+                (0..every).all(|v| {
+                    let goal = if v == 0 { goals.own } else { goals.edge };
+                    given().missed(v, s) <= goal
+                })
+            };
+            if (1..=u32::MAX >> (32 - k)).any(reaches) {
+                reached += 1;
+            }
+        }
+        // Both outcomes occur, and the bound saves reads.
+        assert!(
+            reached > 300 && reached < 2700,
+            "{reached} reached the goals"
+        );
+        assert!(skipped > 1000, "{skipped} searches read fewer masks");
+    }
 }

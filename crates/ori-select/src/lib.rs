@@ -21,11 +21,16 @@
 //! one of those (`edge_goal_percent`). The entry's `missed` stays the error in its own view
 //! (the table's figures); quality is reported at held-out directions ([`held_out`]).
 //!
-//! Work (parallel over views, collected in order): the [`MaskPlan`] lists the views and the
-//! impostors to trace in each; the mesh's coverage and each listed impostor's coverage mask
-//! are rendered once by `ori_eval` ([`all_view_masks`]), then [`choose_region`] combines them
-//! with OR and popcount. Each view and each entry is computed by one thread and collected in
-//! order, so the table ([`Selection::encode`]) is bit-identical for any number of threads.
+//! Work (parallel over views, then over entries, collected in order): the [`MaskPlan`] lists
+//! the views and the impostors to trace in each; the mesh's coverage of every view is
+//! rendered up front, and an impostor's coverage mask in a view the first time the subset
+//! search reads it, once ([`select_with`]). The search measures every subset in the entry's
+//! own view and its region's corners, and the rest of the grid only for the subsets that can
+//! still win, so most masks of the grid are never traced, and the choice is the one a search
+//! over every mask makes ([`select_from_masks`], which `--backend gpu` feeds with masks
+//! traced on the device). Masks are combined with OR and popcount. Each mask has one value
+//! whichever thread traces it and each entry is chosen by one thread and collected in order,
+//! so the table ([`Selection::encode`]) is bit-identical for any number of threads.
 //! [`evaluate_rules`] renders full images for the extra measures (inverse coverage, p_dif,
 //! depth error) of `cargo xtask eval-table`.
 //!
@@ -59,6 +64,7 @@
 
 mod choose;
 mod codec;
+mod lazy;
 mod report;
 mod rule;
 
@@ -66,6 +72,8 @@ use ori_eval::Evaluator;
 use ori_mesh::Mesh;
 use ori_relief::ReliefSet;
 use rayon::prelude::*;
+
+use lazy::LazyView;
 
 pub use choose::{Choice, Goals, ViewMasks, choose, choose_region};
 pub use ori_artifact::DecodeError;
@@ -128,6 +136,16 @@ pub struct Stats {
 }
 
 impl Selection {
+    fn of(params: &SelectParams, impostor_count: usize, entries: Vec<Entry>) -> Selection {
+        Selection {
+            rule: params.rule,
+            goal_percent: params.goal_percent,
+            s0: params.s0,
+            impostor_count: impostor_count as u32,
+            entries,
+        }
+    }
+
     /// The coverage error of each direction, in pixels.
     pub fn missed(&self) -> Vec<u32> {
         self.entries.iter().map(|e| e.missed).collect()
@@ -283,15 +301,8 @@ pub fn select_from_masks(
     impostor_count: usize,
 ) -> Result<Selection, SelectError> {
     params.validate()?;
-    let goals = Goals {
-        own: params.goal_pixels(),
-        edge: params.edge_goal_pixels(),
-    };
     let count = ori_views::evaluation_directions().len();
-    let regions = match params.rule {
-        Rule::Best(_) => ori_views::evaluation_regions(params.region_steps as usize).of_direction,
-        Rule::Closest(_) => Vec::new(),
-    };
+    let regions = region_samples(params);
     let expected = count + regions.iter().flatten().max().map_or(0, |&s| s + 1);
     if masks.len() != expected {
         return Err(SelectError::Masks {
@@ -299,29 +310,40 @@ pub fn select_from_masks(
             got: masks.len(),
         });
     }
-    let entries = (0..count)
+    let goals = params.goals();
+    let entries = choose_entries(count, |e| {
+        let region: Vec<&ViewMasks> = regions
+            .get(e)
+            .map_or(&[][..], |r| &r[..])
+            .iter()
+            .map(|&s| &masks[count + s])
+            .collect();
+        choose_region(&masks[e], &region, params.rule, goals)
+    });
+    Ok(Selection::of(params, impostor_count, entries))
+}
+
+/// For each evaluation direction, its region's views (`best:M`; none for `closest:M`) as
+/// indices into [`ori_views::evaluation_regions`]' samples, corners first.
+fn region_samples(params: &SelectParams) -> Vec<Vec<usize>> {
+    match params.rule {
+        Rule::Best(_) => ori_views::evaluation_regions(params.region_steps as usize).of_direction,
+        Rule::Closest(_) => Vec::new(),
+    }
+}
+
+/// Each of the `count` entries chosen by `choose`, in parallel, in order.
+fn choose_entries(count: usize, choose: impl Fn(usize) -> Choice + Sync) -> Vec<Entry> {
+    (0..count)
         .into_par_iter()
         .map(|e| {
-            let region: Vec<&ViewMasks> = regions
-                .get(e)
-                .map_or(&[][..], |r| &r[..])
-                .iter()
-                .map(|&s| &masks[count + s])
-                .collect();
-            let c = choose_region(&masks[e], &region, params.rule, goals);
+            let c = choose(e);
             Entry {
                 impostors: c.impostors.iter().map(|&i| i as u16).collect(),
                 missed: c.missed,
             }
         })
-        .collect();
-    Ok(Selection {
-        rule: params.rule,
-        goal_percent: params.goal_percent,
-        s0: params.s0,
-        impostor_count: impostor_count as u32,
-        entries,
-    })
+        .collect()
 }
 
 /// Select the impostors of `mesh`'s relief set for each of the 320 evaluation directions.
@@ -342,6 +364,24 @@ pub fn select_with(
 ) -> Result<Selection, SelectError> {
     params.validate()?;
     let plan = MaskPlan::new(evaluator, params);
-    let masks = all_view_masks(evaluator, &plan)?;
-    select_from_masks(&masks, params, evaluator.set().maps.len())
+    let views: Vec<LazyView> = plan
+        .directions
+        .par_iter()
+        .zip(&plan.impostors)
+        .map(|(&w, impostors)| LazyView::new(evaluator, w, impostors))
+        .collect::<Result<_, _>>()?;
+    let count = ori_views::evaluation_directions().len();
+    let regions = region_samples(params);
+    let goals = params.goals();
+    let entries = choose_entries(count, |e| {
+        let region: Vec<&LazyView> = regions
+            .get(e)
+            .map_or(&[][..], |r| &r[..])
+            .iter()
+            .map(|&s| &views[count + s])
+            .collect();
+        let corners = region.len().min(3);
+        lazy::choose_entry(evaluator, &views[e], &region, corners, params.rule, goals)
+    });
+    Ok(Selection::of(params, evaluator.set().maps.len(), entries))
 }

@@ -189,6 +189,14 @@ impl SelectParams {
     pub fn edge_goal_pixels(&self) -> u32 {
         goal_pixels(self.edge_goal_percent, self.s0)
     }
+
+    /// Both goals, as pixel counts.
+    pub fn goals(&self) -> crate::Goals {
+        crate::Goals {
+            own: self.goal_pixels(),
+            edge: self.edge_goal_pixels(),
+        }
+    }
 }
 
 pub(crate) fn goal_pixels(goal_percent: f64, s0: u32) -> u32 {

@@ -3,7 +3,9 @@
 
 use ori_bake::{BakeParams, ReliefSet};
 use ori_mesh::Mesh;
-use ori_select::{Rule, SelectParams, Selection, select};
+use ori_select::{
+    MaskPlan, Rule, SelectParams, Selection, all_view_masks, select, select_from_masks, select_with,
+};
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
 
@@ -74,6 +76,22 @@ fn the_table_is_the_same_for_any_thread_count_and_round_trips() {
     let mut bad = one.clone();
     bad.push(0);
     assert!(Selection::decode(&bad).is_err());
+}
+
+#[test]
+fn masks_traced_as_the_search_reads_them_choose_what_all_masks_choose() {
+    let (mesh, set) = prepared("stanford/bunny/bunny_npm_lowres.obj");
+    // The default rule and region grid, at a smaller s0 (the search's order is the same).
+    let params = SelectParams {
+        s0: 96,
+        ..SelectParams::default()
+    };
+    let evaluator = ori_eval::Evaluator::new(&mesh, &set, &params.eval_params()).expect("eval");
+    let plan = MaskPlan::new(&evaluator, &params);
+    let masks = all_view_masks(&evaluator, &plan).expect("masks");
+    let every = select_from_masks(&masks, &params, set.maps.len()).expect("select");
+    assert_eq!(select_with(&evaluator, &params).expect("select"), every);
+    assert!(every.entries.iter().any(|e| e.impostors.len() > 1));
 }
 
 #[test]
