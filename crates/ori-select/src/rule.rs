@@ -89,10 +89,10 @@ pub struct SelectParams {
     /// (default 0.2).
     pub goal_percent: f64,
     /// Coverage-error goal of `best:M` at the grid of directions over the region an entry
-    /// serves, `ori_views::evaluation_regions` (default 0.27; `goal_percent` to 100).
+    /// serves, `ori_views::evaluation_regions` (default 0.29; `goal_percent` to 100).
     pub edge_goal_percent: f64,
     /// Steps along each edge of an entry's triangle between the directions `best:M` measures
-    /// its region at (default 4: 15 directions per entry; 2: its corners and edge midpoints;
+    /// its region at (default 5: 21 directions per entry; 2: its corners and edge midpoints;
     /// 1 to 8).
     pub region_steps: u32,
     /// Evaluation image edge s0 (default 256).
@@ -112,8 +112,8 @@ impl Default for SelectParams {
         SelectParams {
             rule: Rule::Best(8),
             goal_percent: 0.2,
-            edge_goal_percent: 0.27,
-            region_steps: 4,
+            edge_goal_percent: 0.29,
+            region_steps: 5,
             s0: e.s0,
             linear_steps: e.linear_steps,
             binary_steps: e.binary_steps,

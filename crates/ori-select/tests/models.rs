@@ -83,7 +83,7 @@ fn masks_traced_as_the_search_reads_them_choose_what_all_masks_choose() {
     let (mesh, set) = prepared("stanford/bunny/bunny_npm_lowres.obj");
     // The default rule and region grid, at a smaller s0 (the search's order is the same).
     let params = SelectParams {
-        s0: 96,
+        s0: 64,
         ..SelectParams::default()
     };
     let evaluator = ori_eval::Evaluator::new(&mesh, &set, &params.eval_params()).expect("eval");

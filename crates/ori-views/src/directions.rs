@@ -304,7 +304,7 @@ mod tests {
         let held_out = held_out_directions(DEFAULT_HELD_OUT_SEED);
         let corners = evaluation_corners();
         assert_eq!(corners.len(), 162);
-        for steps in [1, 2, 3, 4, 6] {
+        for steps in [1, 2, 3, 4, 5, 6] {
             let regions = evaluation_regions(steps);
             // Euler: 162 vertices and 480 edges of the 320 triangles; each sample once.
             let inner = (steps - 1) * steps.saturating_sub(2) / 2 - usize::from(steps % 3 == 0);
