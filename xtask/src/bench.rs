@@ -376,9 +376,9 @@ fn select(runs: usize) -> Result<(), String> {
         let (mut ts, mut ta, mut tp) = (Vec::new(), Vec::new(), Vec::new());
         let mut plt = None;
         for _ in 0..runs.max(1) {
-            let t = Instant::now();
             let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
                 .map_err(|e| e.to_string())?;
+            let t = Instant::now();
             let selection =
                 ori_select::select_with(&evaluator, select).map_err(|e| e.to_string())?;
             ts.push(t.elapsed());

@@ -17,7 +17,8 @@
 //!   inverse coverage, p_dif, depth error) and the error picture ([`error_image`]).
 //!
 //! Coverage is a union: a subset's coverage is the OR of its members' masks, so selection
-//! traces each candidate impostor once per view and combines masks with OR and popcount.
+//! traces each candidate impostor at most once per view (when its subset search first reads
+//! it) and combines masks with OR and popcount.
 //!
 //! # Choices the guide leaves open
 //!

@@ -58,6 +58,8 @@ impl EntryMasks for Entry<'_, '_> {
     fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
         let v = self.views[view];
         let slot = self.slots[view][bit]?;
+        // Entries sharing a view may wait here for each other's mask: the tracing must not
+        // run rayon jobs, or a waiting worker could take one that waits on the same cell.
         let mask = v.masks[slot].get_or_init(|| {
             self.evaluator
                 .impostor_mask(&v.view, v.impostors[slot], Some(&v.reference))

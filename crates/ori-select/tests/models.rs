@@ -28,7 +28,7 @@ fn prepared(relative: &str) -> (Mesh, ReliefSet) {
 fn the_table_is_the_same_for_any_thread_count_and_round_trips() {
     let (mesh, set) = prepared("stanford/bunny/bunny_npm_lowres.obj");
     // Corners and edge midpoints only: the region grid's size does not change how work is
-    // split and collected, and three selections at the default grid cost half a minute.
+    // split and collected, and three selections at the default grid cost several times more.
     let params = SelectParams {
         rule: Rule::Best(4),
         region_steps: 2,
