@@ -119,6 +119,16 @@ fn edits_rerun_exactly_the_stages_they_touch() {
         "{t}"
     );
 
+    // The selection's region grid: selection, the PLT and packaging; placement measures
+    // neither the grid nor its goal, so it is reused.
+    p.config(
+        "[compress]\nquality = \"fast\"\n[[overrides]]\nassets = \"**\"\nselect.region_steps = 3\n",
+    );
+    let out = p.build(&["--explain"]);
+    let t = ok(&out);
+    assert_eq!(ran_all(&out), [0, 0, 0, 0, 3, 3, 0, 3], "{t}");
+    assert!(t.contains("region_steps: 2 -> 3"), "{t}");
+
     // The impostor count: views, baking and everything after them.
     p.config("[compress]\nquality = \"fast\"\n[views]\ncount = 6\n");
     let out = p.build(&["--explain"]);

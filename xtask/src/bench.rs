@@ -328,7 +328,7 @@ fn place(runs: usize) -> Result<(), String> {
                     &plan,
                     &params.place,
                     &params.bake,
-                    &params.select,
+                    &ori::PlacementGoal::of(&params.select),
                     params.views.item_buffer_size,
                     None,
                 )

@@ -14,13 +14,14 @@
 use std::time::{Duration, Instant};
 
 use ori_bake::BakeParams;
-use ori_eval::{Evaluator, Whole};
+use ori_eval::{EvalParams, Evaluator, Whole};
 use ori_mesh::Mesh;
 use ori_place::{Measure, PlaceError, PlaceParams, Placement};
 use ori_plt::Plt;
 use ori_relief::ReliefSet;
 use ori_select::{HeldOut, SelectParams, Selection};
 use ori_views::{ViewParams, ViewPlan};
+use serde::{Deserialize, Serialize};
 
 /// Every parameter that shapes an ORI's maps, table and PLT.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -44,6 +45,30 @@ pub enum OriError {
     Select(#[from] ori_select::SelectError),
 }
 
+/// What placement reads of the selection's parameters (its result depends on these and on
+/// nothing else of `[select]`: it measures the table's views and their corners, not the
+/// region's grid or goal, so tuning those does not place again).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlacementGoal {
+    /// The evaluator's parameters (s0 and the runtime rule).
+    pub eval: EvalParams,
+    /// The most impostors the rule draws (its `M`).
+    pub most_drawn: u32,
+    /// The own-view goal, in pixels of s0 x s0.
+    pub goal_pixels: u32,
+}
+
+impl PlacementGoal {
+    pub fn of(select: &SelectParams) -> PlacementGoal {
+        PlacementGoal {
+            eval: select.eval_params(),
+            most_drawn: select.rule.m(),
+            goal_pixels: select.goal_pixels(),
+        }
+    }
+}
+
 /// Step 2: placement, measured with the bake and the selection that come after it (the
 /// result depends on them) and the views' item-buffer size for entropies; `whole` when `mesh`
 /// is a part of a larger model (a hierarchy node, measured in its own pixels).
@@ -52,15 +77,15 @@ pub fn place(
     plan: &ViewPlan,
     place: &PlaceParams,
     bake: &BakeParams,
-    select: &SelectParams,
+    goal: &PlacementGoal,
     item_buffer_size: u32,
     whole: Option<Whole<'_>>,
 ) -> Result<Placement, PlaceError> {
     let measure = Measure {
         bake,
-        eval: &select.eval_params(),
-        closest: place.closest.min(select.rule.m()) as usize,
-        goal_pixels: select.goal_pixels(),
+        eval: &goal.eval,
+        closest: place.closest.min(goal.most_drawn) as usize,
+        goal_pixels: goal.goal_pixels,
         entropy_size: item_buffer_size,
         whole,
     };
@@ -141,7 +166,7 @@ pub fn build_maps(mesh: &Mesh, params: &OriParams) -> Result<Maps, OriError> {
         &planned,
         &params.place,
         &params.bake,
-        &params.select,
+        &PlacementGoal::of(&params.select),
         params.views.item_buffer_size,
         None,
     )?;

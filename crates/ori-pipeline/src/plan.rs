@@ -186,7 +186,7 @@ impl Planner {
         let place_job = PlaceJob {
             place: params.place.clone(),
             bake: params.bake.clone(),
-            select: goals.clone(),
+            goal: crate::ori::PlacementGoal::of(&goals),
             item_buffer_size: params.views.item_buffer_size,
             part_of,
         };

@@ -1,6 +1,6 @@
 //! place: moves the planned directions where the evaluator shows they are needed (`[place]`,
-//! see `ori_place`), measured with the `[bake]` and `[select]` parameters of the stages after
-//! it.
+//! see `ori_place`), measured with the `[bake]` parameters and what it reads of `[select]`
+//! (`ori::PlacementGoal`) of the stages after it.
 
 use ori_bake::BakeParams;
 use ori_graph::{JobContext, StageError};
@@ -12,13 +12,13 @@ use super::{PipelineStage, ingest::MESH, views::PLAN};
 pub struct Place;
 
 /// The place job's parameters: its own, and those of the bake and selection it measures
-/// with (its result depends on them).
+/// with (its result depends on them, and on nothing else).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlaceJob {
     pub place: ori_place::PlaceParams,
     pub bake: BakeParams,
-    pub select: ori_select::SelectParams,
+    pub goal: crate::ori::PlacementGoal,
     pub item_buffer_size: u32,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part_of: PartOf,
@@ -26,7 +26,7 @@ pub struct PlaceJob {
 
 impl PipelineStage for Place {
     const NAME: &'static str = "place";
-    const VERSION: u32 = 2;
+    const VERSION: u32 = 3;
     type Params = PlaceJob;
 
     fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
@@ -38,7 +38,7 @@ impl PipelineStage for Place {
             &plan,
             &params.place,
             &params.bake,
-            &params.select,
+            &params.goal,
             params.item_buffer_size,
             whole.as_ref().map(WholeMesh::whole),
         )
