@@ -61,8 +61,7 @@ pub struct Goals {
 /// Subsets are unions of masks (OR), their error a popcount: nothing is re-rendered. The
 /// choice's `missed` is the error in `own`.
 pub fn choose_region(own: &ViewMasks, region: &[&ViewMasks], rule: Rule, goals: Goals) -> Choice {
-    let k = own.candidates.len().min(rule.m() as usize);
-    let ids: Vec<usize> = own.candidates[..k].iter().map(|c| c.0).collect();
+    let ids: Vec<usize> = own.candidates.iter().map(|c| c.0).collect();
     let views = Given(
         std::iter::once(own)
             .chain(region.iter().copied())
@@ -105,7 +104,8 @@ pub(crate) trait EntryMasks {
     }
 }
 
-/// [`choose_region`]'s rule on masks from `masks`, for the candidates `ids` (closest first).
+/// [`choose_region`]'s rule on masks from `masks`, for the first `M` of the candidates `ids`
+/// (closest first).
 ///
 /// The views before `bound` (at least the own view) are measured for every subset; the
 /// others only for the subsets that can still win, in order of their error in those first
@@ -119,6 +119,7 @@ pub(crate) fn choose_with(
     goals: Goals,
     bound: usize,
 ) -> Choice {
+    let ids = &ids[..ids.len().min(rule.m() as usize)];
     let k = ids.len();
     if let Rule::Closest(_) = rule {
         // Up to MAX_CLOSEST candidates: more than a subset's bits hold.
@@ -174,8 +175,9 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
     let goal = |view: usize| if view == 0 { goals.own } else { goals.edge };
     // best:M has M <= MAX_BEST, so a subset is a bit set in a u32.
     let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
-    let within_goals = |m: &mut Measure, view_range: std::ops::Range<usize>| {
-        view_range.into_iter().all(|view| {
+    // Measures `m` in the views before the bound; false once one is over its goal.
+    let within_goals = |m: &mut Measure| {
+        (0..bound).all(|view| {
             let missed = masks.missed(view, m.subset);
             m.add(missed);
             missed <= goal(view)
@@ -185,7 +187,7 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
         let mut open: Vec<Measure> = (1..=all)
             .filter(|s| s.count_ones() == size)
             .map(|subset| Measure::new(ids, subset))
-            .filter_map(|mut m| within_goals(&mut m, 0..bound).then_some(m))
+            .filter_map(|mut m| within_goals(&mut m).then_some(m))
             .collect();
         open.sort_unstable();
         let mut best: Option<Measure> = None;

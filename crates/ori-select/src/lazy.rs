@@ -68,19 +68,17 @@ impl EntryMasks for Entry<'_, '_> {
     }
 }
 
-/// Choose one entry from its own view and its region's views, tracing masks as the search
-/// reads them. The own view and the region's first `corners` views are measured for every
+/// Choose one entry from its own view and its region's views (corners first), tracing masks
+/// as the search reads them. The own view and the region's corners are measured for every
 /// subset.
 pub(crate) fn choose_entry(
     evaluator: &Evaluator<'_>,
     own: &LazyView,
     region: &[&LazyView],
-    corners: usize,
     rule: Rule,
     goals: Goals,
 ) -> Choice {
-    let k = own.impostors.len().min(rule.m() as usize);
-    let ids = &own.impostors[..k];
+    let ids = &own.impostors;
     let views: Vec<&LazyView> = std::iter::once(own).chain(region.iter().copied()).collect();
     let slots = views
         .iter()
@@ -95,5 +93,5 @@ pub(crate) fn choose_entry(
         views,
         slots,
     };
-    choose_with(&entry, ids, rule, goals, 1 + corners)
+    choose_with(&entry, ids, rule, goals, 1 + region.len().min(3))
 }

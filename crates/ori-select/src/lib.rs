@@ -311,14 +311,8 @@ pub fn select_from_masks(
         });
     }
     let goals = params.goals();
-    let entries = choose_entries(count, |e| {
-        let region: Vec<&ViewMasks> = regions
-            .get(e)
-            .map_or(&[][..], |r| &r[..])
-            .iter()
-            .map(|&s| &masks[count + s])
-            .collect();
-        choose_region(&masks[e], &region, params.rule, goals)
+    let entries = choose_entries(masks, &regions, |own, region| {
+        choose_region(own, region, params.rule, goals)
     });
     Ok(Selection::of(params, impostor_count, entries))
 }
@@ -332,12 +326,25 @@ fn region_samples(params: &SelectParams) -> Vec<Vec<usize>> {
     }
 }
 
-/// Each of the `count` entries chosen by `choose`, in parallel, in order.
-fn choose_entries(count: usize, choose: impl Fn(usize) -> Choice + Sync) -> Vec<Entry> {
+/// Each entry chosen by `choose` from its own view and its region's, in parallel, in order.
+/// `views` are in a [`MaskPlan`]'s order: the evaluation directions, then the region samples
+/// that `regions` (from [`region_samples`]) index.
+fn choose_entries<T: Sync>(
+    views: &[T],
+    regions: &[Vec<usize>],
+    choose: impl Fn(&T, &[&T]) -> Choice + Sync,
+) -> Vec<Entry> {
+    let count = ori_views::evaluation_directions().len();
     (0..count)
         .into_par_iter()
         .map(|e| {
-            let c = choose(e);
+            let region: Vec<&T> = regions
+                .get(e)
+                .map_or(&[][..], |r| &r[..])
+                .iter()
+                .map(|&s| &views[count + s])
+                .collect();
+            let c = choose(&views[e], &region);
             Entry {
                 impostors: c.impostors.iter().map(|&i| i as u16).collect(),
                 missed: c.missed,
@@ -370,18 +377,9 @@ pub fn select_with(
         .zip(&plan.impostors)
         .map(|(&w, impostors)| LazyView::new(evaluator, w, impostors))
         .collect::<Result<_, _>>()?;
-    let count = ori_views::evaluation_directions().len();
-    let regions = region_samples(params);
     let goals = params.goals();
-    let entries = choose_entries(count, |e| {
-        let region: Vec<&LazyView> = regions
-            .get(e)
-            .map_or(&[][..], |r| &r[..])
-            .iter()
-            .map(|&s| &views[count + s])
-            .collect();
-        let corners = region.len().min(3);
-        lazy::choose_entry(evaluator, &views[e], &region, corners, params.rule, goals)
+    let entries = choose_entries(&views, &region_samples(params), |own, region| {
+        lazy::choose_entry(evaluator, own, region, params.rule, goals)
     });
     Ok(Selection::of(params, evaluator.set().maps.len(), entries))
 }
