@@ -31,6 +31,10 @@ pub struct Args {
     /// (`[place] closest`).
     #[arg(long)]
     place_closest: Option<u32>,
+    /// Placement search: stop once the worst view is within the selection's own goal times
+    /// this (`[place] goal_scale`).
+    #[arg(long)]
+    place_goal_scale: Option<f64>,
     /// Relief-map resolution.
     #[arg(long, default_value_t = 256)]
     resolution: u32,
@@ -119,6 +123,9 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         closest: args
             .place_closest
             .unwrap_or(ori_place::PlaceParams::default().closest),
+        goal_scale: args
+            .place_goal_scale
+            .unwrap_or(ori_place::PlaceParams::default().goal_scale),
         ..Default::default()
     };
     let ori_params = OriParams {

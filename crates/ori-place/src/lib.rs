@@ -41,7 +41,8 @@
 //!   never computed. The moves left are scored in full; the choice is the one of scoring
 //!   every move.
 //! - **The end.** The search stops when the worst view's error is within the selection's
-//!   goal (every view measured can then be drawn within the goal), when no move helps, or after
+//!   goal times [`PlaceParams::goal_scale`] (every view measured can then be drawn within the
+//!   goal, with a margin for the views between them), when no move helps, or after
 //!   [`PlaceParams::max_moves`] moves.
 //!
 //! Only moves near the worst view are tried: that keeps the number of masks, which is what
@@ -78,6 +79,11 @@ pub struct PlaceParams {
     /// Below `M`, selection keeps the farther candidates for the edges of each entry's region,
     /// where the entry's own closest impostors are not the view's.
     pub closest: u32,
+    /// The search stops once the worst view is within the selection's own goal times this
+    /// (default 0.75; 0.05 to 1). Below 1 it goes on past the goal: the selection's goal
+    /// holds over each entry's whole region, between the directions measured here, and
+    /// impostors that leave margin at those let it draw fewer per view.
+    pub goal_scale: f64,
 }
 
 impl Default for PlaceParams {
@@ -86,6 +92,7 @@ impl Default for PlaceParams {
             max_moves: 32,
             step_deg: 20.0,
             closest: 6,
+            goal_scale: 0.75,
         }
     }
 }
@@ -111,7 +118,19 @@ impl PlaceParams {
                 self.closest
             )));
         }
+        if !(self.goal_scale.is_finite() && (0.05..=1.0).contains(&self.goal_scale)) {
+            return Err(PlaceError::Params(format!(
+                "place.goal_scale = {} is out of range (0.05 to 1)",
+                self.goal_scale
+            )));
+        }
         Ok(())
+    }
+
+    /// The worst view's error, in pixels, at which the search stops, for the selection's own
+    /// goal of `goal_pixels`.
+    pub fn stop_pixels(&self, goal_pixels: u32) -> u32 {
+        (f64::from(goal_pixels) * self.goal_scale).floor() as u32
     }
 }
 
@@ -234,9 +253,10 @@ fn place_scored(
     let worst_before = errors.iter().copied().max().unwrap_or(0);
     let mut current = score(&errors);
     let mut moves = 0;
+    let stop = params.stop_pixels(measure.goal_pixels);
     while moves < params.max_moves {
         let worst = worst_view(&errors);
-        if errors[worst] <= measure.goal_pixels {
+        if errors[worst] <= stop {
             break;
         }
         let near = search.drawn(&chosen, worst);

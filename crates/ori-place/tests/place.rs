@@ -128,6 +128,13 @@ fn bad_parameters_are_errors_that_name_the_key() {
             },
             "place.step_deg",
         ),
+        (
+            PlaceParams {
+                goal_scale: 0.0,
+                ..Default::default()
+            },
+            "place.goal_scale",
+        ),
     ];
     for (params, key) in bad {
         let measure = Measure {

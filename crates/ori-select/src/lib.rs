@@ -15,8 +15,8 @@
 //! The runtime draws, at any direction, the entry of the nearest evaluation direction, so an
 //! entry serves about its spherical triangle of directions. `best:M` therefore measures a
 //! subset in the entry's own view and at a grid of directions over the triangle
-//! ([`ori_views::evaluation_regions`]; at the default `region_steps = 5`, 21 per entry and
-//! 4,002 views in all, the corners and edge points shared by neighbouring entries), and a
+//! ([`ori_views::evaluation_regions`]; at the default `region_steps = 6`, 27 per entry and
+//! 5,442 views in all, the corners and edge points shared by neighbouring entries), and a
 //! subset reaches the goal only when it does in its own view (`goal_percent`) and at every
 //! one of those (`edge_goal_percent`). The entry's `missed` stays the error in its own view
 //! (the table's figures); quality is reported at held-out directions ([`held_out`]).

@@ -92,7 +92,7 @@ pub struct SelectParams {
     /// serves, `ori_views::evaluation_regions` (default 0.29; `goal_percent` to 100).
     pub edge_goal_percent: f64,
     /// Steps along each edge of an entry's triangle between the directions `best:M` measures
-    /// its region at (default 5: 21 directions per entry; 2: its corners and edge midpoints;
+    /// its region at (default 6: 27 directions per entry; 2: its corners and edge midpoints;
     /// 1 to 8).
     pub region_steps: u32,
     /// Evaluation image edge s0 (default 256).
@@ -113,7 +113,7 @@ impl Default for SelectParams {
             rule: Rule::Best(8),
             goal_percent: 0.2,
             edge_goal_percent: 0.29,
-            region_steps: 5,
+            region_steps: 6,
             s0: e.s0,
             linear_steps: e.linear_steps,
             binary_steps: e.binary_steps,

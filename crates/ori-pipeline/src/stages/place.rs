@@ -26,7 +26,7 @@ pub struct PlaceJob {
 
 impl PipelineStage for Place {
     const NAME: &'static str = "place";
-    const VERSION: u32 = 3;
+    const VERSION: u32 = 4;
     type Params = PlaceJob;
 
     fn run(&self, params: PlaceJob, job: &mut JobContext<'_>) -> Result<(), StageError> {
