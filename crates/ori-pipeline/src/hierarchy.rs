@@ -92,6 +92,26 @@ impl HierarchyParams {
             ..select.clone()
         }
     }
+
+    /// The placement parameters of a node at `depth`: the asset's for the root; below it,
+    /// every view must be drawable within the node's goals with all `most_drawn` (the rule's
+    /// `M`) closest impostors rather than `[place] closest`. The scaled goals are often out of
+    /// the closest few's reach, where a search for fewer leaves the worst views to all `M`
+    /// without lowering what those miss.
+    pub fn node_place(
+        &self,
+        place: &ori_place::PlaceParams,
+        most_drawn: u32,
+        depth: u32,
+    ) -> ori_place::PlaceParams {
+        if depth == 0 {
+            return place.clone();
+        }
+        ori_place::PlaceParams {
+            closest: most_drawn.clamp(1, 16),
+            ..place.clone()
+        }
+    }
 }
 
 /// One node of a decided tree.
@@ -158,6 +178,10 @@ mod tests {
         assert_eq!(deep.edge_goal_percent, select.edge_goal_percent * 0.25);
         assert_eq!((deep.rule, deep.s0), (select.rule, select.s0));
         assert!(deep.validate().is_ok());
+        let place = ori_place::PlaceParams::default();
+        assert_eq!(params.node_place(&place, 8, 0), place);
+        assert_eq!(params.node_place(&place, 8, 1).closest, 8);
+        assert_eq!(params.node_place(&place, 8, 1).max_moves, place.max_moves);
         for bad in [0.0, 0.01, 1.5, f64::NAN] {
             let e = HierarchyParams {
                 goal_scale: bad,

@@ -184,7 +184,9 @@ impl Planner {
         };
         let views = self.add::<Views>(label, &params.views, vec![MESH.from(mesh)]);
         let place_job = PlaceJob {
-            place: params.place.clone(),
+            place: params
+                .hierarchy
+                .node_place(&params.place, goals.rule.m(), depth),
             bake: params.bake.clone(),
             goal: crate::ori::PlacementGoal::of(&goals),
             item_buffer_size: params.views.item_buffer_size,
