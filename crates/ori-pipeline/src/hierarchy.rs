@@ -94,10 +94,11 @@ impl HierarchyParams {
     }
 
     /// The placement parameters of a node at `depth`: the asset's for the root; below it,
-    /// every view must be drawable within the node's goals with all `most_drawn` (the rule's
-    /// `M`) closest impostors rather than `[place] closest`. The scaled goals are often out of
-    /// the closest few's reach, where a search for fewer leaves the worst views to all `M`
-    /// without lowering what those miss.
+    /// every view must be drawable within the node's (scaled) goals, times `[place]
+    /// goal_scale`, with all `most_drawn` (the rule's `M`) closest impostors rather than
+    /// `[place] closest`. The scaled goals are often out of the closest few's reach, and
+    /// placing for fewer than `M` leaves those views to the selection, which cannot move
+    /// impostors.
     pub fn node_place(
         &self,
         place: &ori_place::PlaceParams,
@@ -182,6 +183,8 @@ mod tests {
         assert_eq!(params.node_place(&place, 8, 0), place);
         assert_eq!(params.node_place(&place, 8, 1).closest, 8);
         assert_eq!(params.node_place(&place, 8, 1).max_moves, place.max_moves);
+        // `closest:255` draws more than placement measures (at most 16).
+        assert_eq!(params.node_place(&place, 255, 2).closest, 16);
         for bad in [0.0, 0.01, 1.5, f64::NAN] {
             let e = HierarchyParams {
                 goal_scale: bad,

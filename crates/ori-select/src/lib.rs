@@ -7,8 +7,8 @@
 //! Rules ([`Rule`]): `closest:M` draws the M closest facing impostors; `best:M` (default
 //! `best:8`, goal 0.2 % of s0 x s0) tries the subsets of the M closest facing impostors by
 //! size and keeps the first size that reaches the goal, with the guide's tie-breaking
-//! ([`choose_region`]). Placement (`ori_place`) makes each view drawable with its 6 closest;
-//! the two farther candidates serve the corners of an entry's region, whose own closest
+//! ([`choose_region`]). Placement (`ori_place`) makes each view drawable with its 6 closest
+//! (below a hierarchy's root, its 8); the two farther candidates serve the corners of an entry's region, whose own closest
 //! impostors are often not the entry's.
 //!
 //! # Each entry serves a region
@@ -56,7 +56,8 @@
 //! single-sided meshes began to be drawn as engines draw them, back faces culled (`ori_eval`,
 //! "The mesh as an engine draws it"); its worst views then looked up through the holes in
 //! the scan's base, past the culled inside, at parts no impostor near them saw. Placement
-//! moves impostors until those views are within the goal.
+//! moves impostors until those views are within the goal (with a margin, `[place]
+//! goal_scale`).
 //!
 //! Subsets chosen at one direction did not hold a few degrees away (the held-out worst views
 //! lost five to sixteen times the table's), which is why `best:M` now chooses over regions;
