@@ -116,17 +116,12 @@ fn table(args: &Args, params: &SelectParams) -> Result<(), String> {
         supersample: args.supersample,
         ..Default::default()
     };
+    let place_defaults = ori_place::PlaceParams::default();
     let place = ori_place::PlaceParams {
-        max_moves: args
-            .place_moves
-            .unwrap_or(ori_place::PlaceParams::default().max_moves),
-        closest: args
-            .place_closest
-            .unwrap_or(ori_place::PlaceParams::default().closest),
-        goal_scale: args
-            .place_goal_scale
-            .unwrap_or(ori_place::PlaceParams::default().goal_scale),
-        ..Default::default()
+        max_moves: args.place_moves.unwrap_or(place_defaults.max_moves),
+        closest: args.place_closest.unwrap_or(place_defaults.closest),
+        goal_scale: args.place_goal_scale.unwrap_or(place_defaults.goal_scale),
+        ..place_defaults
     };
     let ori_params = OriParams {
         views,

@@ -129,7 +129,7 @@ impl PlaceParams {
 
     /// The worst view's error, in pixels, at which the search stops, for the selection's own
     /// goal of `goal_pixels`: their product, truncated (as the goals in pixels are).
-    pub fn stop_pixels(&self, goal_pixels: u32) -> u32 {
+    fn stop_pixels(&self, goal_pixels: u32) -> u32 {
         (f64::from(goal_pixels) * self.goal_scale).floor() as u32
     }
 }

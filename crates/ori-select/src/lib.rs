@@ -8,8 +8,8 @@
 //! `best:8`, goal 0.2 % of s0 x s0) tries the subsets of the M closest facing impostors by
 //! size and keeps the first size that reaches the goal, with the guide's tie-breaking
 //! ([`choose_region`]). Placement (`ori_place`) makes each view drawable with its 6 closest
-//! (below a hierarchy's root, its 8); the two farther candidates serve the corners of an entry's region, whose own closest
-//! impostors are often not the entry's.
+//! (below a hierarchy's root, its 8); the two farther candidates serve the corners of an
+//! entry's region, whose own closest impostors are often not the entry's.
 //!
 //! # Each entry serves a region
 //! The runtime draws, at any direction, the entry of the nearest evaluation direction, so an
