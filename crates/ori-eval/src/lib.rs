@@ -80,8 +80,10 @@
 //! already, in a cache-friendly triangle order; impostor masks search eight rays at a time in
 //! AVX lanes where the processor has AVX2 (chosen at run time; four in SSE lanes otherwise,
 //! [`Simd`]) and skip the binary search where its outcome is already decided (one texel, or
-//! no wall near the bracket). Both are tested equal to the plain renders, and every lane
-//! width to the scalar rule, so the processor changes the speed, never a bit of the result.
+//! no wall near the bracket). Full renders (a [`Layer`]'s fragments, for colour, depth and
+//! pictures) search in the same lanes, without the shortcuts. All are tested equal to the
+//! plain renders, and every lane width to the scalar rule, so the processor changes the speed,
+//! never a bit of the result.
 //! On the 2-core build machine, eight lanes took selection + PLT on dragon_res2 from 3.4 s
 //! (four lanes) to 2.5 s in release (`cargo xtask bench select`).
 //!
@@ -359,8 +361,7 @@ impl<'a> Evaluator<'a> {
         };
         let depth = &self.set.maps[impostor].depth;
         let walls = &self.walls[impostor];
-        let mut pixels = Vec::new();
-        render::for_each_pixel(&rays, view.size, within, |i, x, y| pixels.push((i, x, y)));
+        let pixels = render::pixels_to_trace(&rays, view.size, within);
         rays.covers_many(depth, walls, &pixels, |i, covered| {
             if covered {
                 mask.set(i);

@@ -348,7 +348,39 @@ impl ImpostorRays {
         depth: &[u8],
         walls: &WallMap,
         pixels: &[(usize, u32, u32)],
-        f: impl FnMut(usize, bool),
+        mut f: impl FnMut(usize, bool),
+    ) {
+        self.search_many(depth, Some(walls), pixels, |i, found| {
+            f(
+                i,
+                matches!(found, Found::Covered | Found::Traced(Trace::Hit { .. })),
+            );
+        });
+    }
+
+    /// [`ImpostorRays::trace`] for many pixels at once: `f(i, trace)` for each `(i, x, y)` of
+    /// `pixels`, in order, searched in SIMD lanes as [`ImpostorRays::covers_many`] does (with
+    /// no shortcut: every hit's fragment is located), with the same answer as the scalar rule.
+    pub fn trace_many(
+        &self,
+        depth: &[u8],
+        pixels: &[(usize, u32, u32)],
+        mut f: impl FnMut(usize, Trace),
+    ) {
+        self.search_many(depth, None, pixels, |i, found| match found {
+            Found::Traced(trace) => f(i, trace),
+            Found::Covered => unreachable!("the shortcuts need a wall map"),
+        });
+    }
+
+    /// The lockstep search behind [`ImpostorRays::covers_many`] (with `walls`: its shortcuts)
+    /// and [`ImpostorRays::trace_many`] (without), on the widest lanes `self.simd` allows.
+    fn search_many(
+        &self,
+        depth: &[u8],
+        walls: Option<&WallMap>,
+        pixels: &[(usize, u32, u32)],
+        f: impl FnMut(usize, Found),
     ) {
         #[cfg(target_arch = "x86_64")]
         {
@@ -356,53 +388,53 @@ impl ImpostorRays {
             let widest = self.simd == Simd::Widest;
             if (widest || self.simd == Simd::Avx512) && has!("avx512f") && has!("avx512vl") {
                 // SAFETY: the features were detected just above.
-                unsafe { self.covers_many_avx512(depth, walls, pixels, f) };
+                unsafe { self.search_many_avx512(depth, walls, pixels, f) };
                 return;
             }
             if (widest || self.simd == Simd::Avx2) && has!("avx2") {
                 // SAFETY: AVX2 was detected just above.
-                unsafe { self.covers_many_avx2(depth, walls, pixels, f) };
+                unsafe { self.search_many_avx2(depth, walls, pixels, f) };
                 return;
             }
         }
-        self.covers_many_lanes::<crate::lanes::F4, 4>(depth, walls, pixels, f)
+        self.search_many_lanes::<crate::lanes::F4, 4>(depth, walls, pixels, f)
     }
 
-    /// [`ImpostorRays::covers_many`] on eight lanes, compiled for AVX2.
+    /// [`ImpostorRays::search_many`] on eight lanes, compiled for AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn covers_many_avx2(
+    fn search_many_avx2(
         &self,
         depth: &[u8],
-        walls: &WallMap,
+        walls: Option<&WallMap>,
         pixels: &[(usize, u32, u32)],
-        f: impl FnMut(usize, bool),
+        f: impl FnMut(usize, Found),
     ) {
-        self.covers_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
+        self.search_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
     }
 
-    /// [`ImpostorRays::covers_many`] on eight lanes, compiled for AVX-512 (the same AVX
+    /// [`ImpostorRays::search_many`] on eight lanes, compiled for AVX-512 (the same AVX
     /// operations, with twice the registers, so fewer values go through the stack).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f,avx512vl")]
-    fn covers_many_avx512(
+    fn search_many_avx512(
         &self,
         depth: &[u8],
-        walls: &WallMap,
+        walls: Option<&WallMap>,
         pixels: &[(usize, u32, u32)],
-        f: impl FnMut(usize, bool),
+        f: impl FnMut(usize, Found),
     ) {
-        self.covers_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
+        self.search_many_lanes::<crate::lanes::F8, 8>(depth, walls, pixels, f)
     }
 
-    /// [`ImpostorRays::covers_many`] on `W` lanes of `V`.
+    /// [`ImpostorRays::search_many`] on `W` lanes of `V`.
     #[inline(always)]
-    fn covers_many_lanes<V: Lanes<W>, const W: usize>(
+    fn search_many_lanes<V: Lanes<W>, const W: usize>(
         &self,
         depth: &[u8],
-        walls: &WallMap,
+        walls: Option<&WallMap>,
         pixels: &[(usize, u32, u32)],
-        mut f: impl FnMut(usize, bool),
+        mut f: impl FnMut(usize, Found),
     ) {
         // Brackets the binary search must decide, refined `W` at a time (at most `2 W - 1`
         // wait).
@@ -412,8 +444,8 @@ impl ImpostorRays {
             let lanes = self.linear_lanes::<V, W>(depth, walls, chunk);
             for (&(i, _, _), lane) in chunk.iter().zip(lanes) {
                 match lane {
-                    Lane::Miss => f(i, false),
-                    Lane::Covered => f(i, true),
+                    Lane::Miss => f(i, Found::Traced(Trace::Miss)),
+                    Lane::Covered => f(i, Found::Covered),
                     Lane::Refine(b) => {
                         pending[count] = (i, b);
                         count += 1;
@@ -445,12 +477,12 @@ impl ImpostorRays {
     }
 
     /// [`ImpostorRays::covers`] for up to `W` pixels in lockstep, but for the binary search:
-    /// rules 1 to 4 and the shortcuts, the same operations lane by lane.
+    /// rules 1 to 4 and, given `walls`, the shortcuts; the same operations lane by lane.
     #[inline(always)]
     fn linear_lanes<V: Lanes<W>, const W: usize>(
         &self,
         depth: &[u8],
-        walls: &WallMap,
+        walls: Option<&WallMap>,
         pixels: &[(usize, u32, u32)],
     ) -> [Lane; W] {
         let centre = |l: usize, c: fn(&(usize, u32, u32)) -> u32| {
@@ -521,7 +553,10 @@ impl ImpostorRays {
             if hi[l].is_nan() {
                 continue;
             }
-            if in_lo[l] && in_hi[l] {
+            if let Some(walls) = walls
+                && in_lo[l]
+                && in_hi[l]
+            {
                 let (tl, th) = (
                     (xl[l] as usize, yl[l] as usize),
                     (xh[l] as usize, yh[l] as usize),
@@ -563,13 +598,13 @@ impl ImpostorRays {
         )
     }
 
-    /// [`ImpostorRays::refine`] on up to `W` brackets in lockstep; `f(i, is a hit)`.
+    /// [`ImpostorRays::refine`] on up to `W` brackets in lockstep.
     #[inline(always)]
     fn refine_lanes<V: Lanes<W>, const W: usize>(
         &self,
         depth: &[u8],
         batch: &[(usize, Bracket)],
-        f: &mut impl FnMut(usize, bool),
+        f: &mut impl FnMut(usize, Found),
     ) {
         let lane = |l: usize| batch[l.min(batch.len() - 1)].1;
         let ox = V::from_array(std::array::from_fn(|l| lane(l).ox));
@@ -592,7 +627,15 @@ impl ImpostorRays {
                 .texel(b.ox + hi[l] * dx, b.oy + hi[l] * dy)
                 .expect("a sample below the surface is inside the map");
             let a = self.code(depth, b.ox + lo[l] * dx, b.oy + lo[l] * dy);
-            f(i, !is_wall(a, depth[texel], self.threshold_codes));
+            let trace = if is_wall(a, depth[texel], self.threshold_codes) {
+                Trace::Wall
+            } else {
+                Trace::Hit {
+                    z: hi[l],
+                    texel: texel as u32,
+                }
+            };
+            f(i, Found::Traced(trace));
         }
     }
 
@@ -660,6 +703,13 @@ impl ImpostorRays {
             clamp(hi[1] + 2.0),
         ]
     }
+}
+
+/// What the lockstep search reports for one pixel.
+enum Found {
+    /// A fragment, not located: one of the shortcuts of [`ImpostorRays::covers`].
+    Covered,
+    Traced(Trace),
 }
 
 /// What the lockstep search decided for one lane.

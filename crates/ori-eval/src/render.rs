@@ -105,47 +105,42 @@ impl Layer {
         let Some(rays) = rays else {
             return layer;
         };
-        for_each_pixel(&rays, s, within, |i, x, y| {
-            match rays.trace(&map.depth, x, y) {
-                Trace::Hit { z, texel } => {
-                    layer.mask.set(i);
-                    layer.texel[i] = texel;
-                    layer.z[i] = z;
-                }
-                Trace::Wall => layer.walls += 1,
-                Trace::Miss => {}
+        let pixels = pixels_to_trace(&rays, s, within);
+        rays.trace_many(&map.depth, &pixels, |i, trace| match trace {
+            Trace::Hit { z, texel } => {
+                layer.mask.set(i);
+                layer.texel[i] = texel;
+                layer.z[i] = z;
             }
+            Trace::Wall => layer.walls += 1,
+            Trace::Miss => {}
         });
         layer.rays = Some(rays);
         layer
     }
 }
 
-/// Call `f(index, x, y)` for the pixels of `within` (all pixels when `None`) inside the
-/// footprint of `rays`, in increasing index order.
-pub(crate) fn for_each_pixel(
+/// The pixels `(index, x, y)` of `within` (all pixels when `None`) inside the footprint of
+/// `rays`, in increasing index order: what the lockstep search takes.
+pub(crate) fn pixels_to_trace(
     rays: &ImpostorRays,
     size: u32,
     within: Option<&Mask>,
-    mut f: impl FnMut(usize, u32, u32),
-) {
+) -> Vec<(usize, u32, u32)> {
     let [x0, x1, y0, y1] = rays.footprint(size);
     let s = size as usize;
+    let mut pixels = Vec::new();
     for y in y0..y1 {
         let row = y as usize * s;
         match within {
-            Some(mask) => {
-                for i in mask.ones_in(row + x0 as usize, row + x1 as usize) {
-                    f(i, (i - row) as u32, y);
-                }
-            }
-            None => {
-                for x in x0..x1 {
-                    f(row + x as usize, x, y);
-                }
-            }
+            Some(mask) => pixels.extend(
+                mask.ones_in(row + x0 as usize, row + x1 as usize)
+                    .map(|i| (i, (i - row) as u32, y)),
+            ),
+            None => pixels.extend((x0..x1).map(|x| (row + x as usize, x, y))),
         }
     }
+    pixels
 }
 
 /// Bias of the paper's option 5, in units of the view's depth range.

@@ -2,7 +2,7 @@
 
 mod common;
 
-use ori_eval::{EvalParams, Evaluator, Mask, Simd, WallMap};
+use ori_eval::{EvalParams, Evaluator, Mask, Simd, Trace, WallMap};
 use ori_raster::{EMPTY, rasterize};
 
 /// The rasterizer's coverage of `mesh` through `view`, culled (as the evaluator) or not.
@@ -73,6 +73,7 @@ fn every_lane_width_gives_the_scalar_rule() {
         std::arch::is_x86_feature_detected!("avx512vl")
     );
     let (mesh, set) = common::bunny();
+    let mut walls_traced = false;
     for wall_threshold in [0.05, 0.25] {
         let params = EvalParams {
             wall_threshold,
@@ -96,6 +97,10 @@ fn every_lane_width_gives_the_scalar_rule() {
                     .iter()
                     .map(|&(_, x, y)| rays.covers(&map.depth, &walls, x, y))
                     .collect();
+                let traces: Vec<Trace> = pixels
+                    .iter()
+                    .map(|&(_, x, y)| rays.trace(&map.depth, x, y))
+                    .collect();
                 for simd in [Simd::Widest, Simd::Avx512, Simd::Avx2, Simd::Four] {
                     let lanes = rays.clone().with_simd(simd);
                     let mut got = vec![None; pixels.len()];
@@ -107,11 +112,19 @@ fn every_lane_width_gives_the_scalar_rule() {
                     });
                     let got: Vec<bool> = got.into_iter().map(|c| c.expect("answered")).collect();
                     assert_eq!(got, scalar, "{simd:?}, impostor {i}, direction {w:?}");
+                    let mut got = vec![None; pixels.len()];
+                    lanes.trace_many(&map.depth, &pixels, |k, trace| {
+                        assert!(got[k].replace(trace).is_none(), "pixel {k} traced twice");
+                    });
+                    let got: Vec<Trace> = got.into_iter().map(|t| t.expect("traced")).collect();
+                    assert_eq!(got, traces, "{simd:?}, impostor {i}, direction {w:?}");
                 }
                 assert!(scalar.contains(&true) && scalar.contains(&false));
+                walls_traced |= traces.contains(&Trace::Wall);
             }
         }
     }
+    assert!(walls_traced, "some rays end on walls");
 }
 
 #[test]
