@@ -4,6 +4,9 @@
 //! reference renders for evaluation) comes from [`rasterize`], so they all agree on framing,
 //! pixel centres, fill rule and depth ties.
 //!
+//! The small geometric functions are `#[inline]`: other crates call them per pixel, and
+//! without a hint they are not inlined across crates.
+//!
 //! Conventions:
 //! - A [`Frame`] (u, v, d) is right-handed (u x v = d); `d` points from the object towards the
 //!   viewer. Image columns grow along `u`, rows grow along `-v` (row 0 is the top), pixel
@@ -24,6 +27,7 @@ pub struct Frame {
 }
 
 /// Dot product.
+#[inline]
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
@@ -37,6 +41,7 @@ fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 /// `a` scaled to unit length (zero stays zero).
+#[inline]
 pub fn normalize(a: [f64; 3]) -> [f64; 3] {
     let len = dot(a, a).sqrt();
     if len > 0.0 { a.map(|x| x / len) } else { a }
@@ -59,11 +64,13 @@ impl Frame {
     }
 
     /// Coordinates of `p` in the frame: (u . p, v . p, d . p).
+    #[inline]
     pub fn to_local(&self, p: [f64; 3]) -> [f64; 3] {
         [dot(self.u, p), dot(self.v, p), dot(self.d, p)]
     }
 
     /// World vector from frame coordinates.
+    #[inline]
     pub fn to_world(&self, l: [f64; 3]) -> [f64; 3] {
         std::array::from_fn(|k| self.u[k] * l[0] + self.v[k] * l[1] + self.d[k] * l[2])
     }
@@ -150,6 +157,7 @@ impl OrthoView {
     }
 
     /// Pixel coordinates (x right, y down, in pixels) and height of a world point.
+    #[inline]
     pub fn project(&self, p: [f64; 3]) -> [f64; 3] {
         let l = self.frame.to_local(p);
         let scale = f64::from(self.size) / (2.0 * self.half_size);
@@ -161,11 +169,13 @@ impl OrthoView {
     }
 
     /// Relief depth in [0, 1] of a height.
+    #[inline]
     pub fn depth_of_height(&self, h: f64) -> f64 {
         (self.near - h) / (self.near - self.far)
     }
 
     /// World position of the point at pixel coordinates (x, y) and relief depth `depth`.
+    #[inline]
     pub fn unproject(&self, x: f64, y: f64, depth: f64) -> [f64; 3] {
         let scale = 2.0 * self.half_size / f64::from(self.size);
         let u = x * scale - self.half_size + self.center[0];
@@ -290,11 +300,13 @@ pub fn rasterize_scales(
 
 /// `a.min(b)` without NaN handling (a NaN only makes the pre-test pass, and the exact test
 /// rejects it).
+#[inline]
 pub fn fmin(a: f32, b: f32) -> f32 {
     if a < b { a } else { b }
 }
 
 /// `a.max(b)` without NaN handling (see [`fmin`]).
+#[inline]
 pub fn fmax(a: f32, b: f32) -> f32 {
     if a > b { a } else { b }
 }
@@ -442,6 +454,7 @@ pub fn row_span(
 pub const SLACK: f32 = 1e-2;
 
 /// Whether some pixel-centre index `i` in `0..n` has `lo <= i <= hi` (false for NaN).
+#[inline]
 pub fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
     if !(hi >= 0.0 && lo <= (n - 1) as f32) {
         return false;
@@ -455,6 +468,7 @@ pub fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
 }
 
 /// `ceil(v)` for the pixel range, 0 for negative `v`.
+#[inline]
 pub fn ceil_nonneg(v: f64) -> usize {
     if v <= 0.0 {
         return 0;
@@ -467,6 +481,7 @@ pub fn ceil_nonneg(v: f64) -> usize {
 /// `edge(a, b, c) == area` shows its back to the viewer. The frame (u, v, d) is right-handed
 /// and the screen's y runs down (along -v), so a triangle whose normal `(b - a) x (c - a)`
 /// points towards the viewer (`. d > 0`) turns clockwise on the image: negative area.
+#[inline]
 pub fn faces_away(area: f64) -> bool {
     area > 0.0
 }

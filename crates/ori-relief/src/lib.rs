@@ -40,6 +40,7 @@ impl ReliefMap {
     }
 
     /// Unit normal in the impostor frame rebuilt from the stored (x, y).
+    #[inline]
     pub fn decode_normal(n: [u8; 2]) -> [f64; 3] {
         let x = f64::from(n[0]) / 255.0 * 2.0 - 1.0;
         let y = f64::from(n[1]) / 255.0 * 2.0 - 1.0;
