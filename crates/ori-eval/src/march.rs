@@ -123,13 +123,13 @@ pub struct ImpostorRays {
     epx: f64,
     epy: f64,
     de: f64,
-    /// The SIMD code [`ImpostorRays::covers_many`] runs.
+    /// The SIMD code [`ImpostorRays::covers_many`] and [`ImpostorRays::trace_many`] run.
     simd: Simd,
 }
 
-/// Which SIMD code [`ImpostorRays::covers_many`] runs. Every choice gives the same answer
-/// (each lane does the scalar rule's IEEE operations); they differ only in speed. A choice the
-/// processor lacks runs as [`Simd::Four`].
+/// Which SIMD code [`ImpostorRays::covers_many`] and [`ImpostorRays::trace_many`] run. Every
+/// choice gives the same answer (each lane does the scalar rule's IEEE operations); they differ
+/// only in speed. A choice the processor lacks runs as [`Simd::Four`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Simd {
     /// The widest the processor has (the default).
@@ -329,8 +329,8 @@ impl ImpostorRays {
         }
     }
 
-    /// These rays with [`ImpostorRays::covers_many`] running `simd` (the tests hold every
-    /// choice to the scalar rule).
+    /// These rays with [`ImpostorRays::covers_many`] and [`ImpostorRays::trace_many`] running
+    /// `simd` (the tests hold every choice to the scalar rule).
     pub fn with_simd(mut self, simd: Simd) -> ImpostorRays {
         self.simd = simd;
         self
