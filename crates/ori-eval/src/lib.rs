@@ -81,8 +81,9 @@
 //! AVX lanes where the processor has AVX2 (chosen at run time; four in SSE lanes otherwise,
 //! [`Simd`]) and skip the binary search where its outcome is already decided (one texel, or
 //! no wall near the bracket). Full renders (a [`Layer`]'s fragments, for colour, depth and
-//! pictures) search in the same lanes, without the shortcuts. All are tested equal to the
-//! plain renders, and every lane width to the scalar rule, so the processor changes the speed,
+//! pictures) search in the same lanes, without the shortcuts. Impostor masks are tested equal
+//! to the full renders' masks, and both searches, at every lane width, to the scalar rule
+//! ([`ImpostorRays::covers`], [`ImpostorRays::trace`]), so the processor changes the speed,
 //! never a bit of the result.
 //! On the 2-core build machine, eight lanes took selection + PLT on dragon_res2 from 3.4 s
 //! (four lanes) to 2.5 s in release (`cargo xtask bench select`).

@@ -336,8 +336,9 @@ impl ImpostorRays {
         self
     }
 
-    /// [`ImpostorRays::covers`] for many pixels at once: `f(i, covered)` for each
-    /// `(i, x, y)` of `pixels`, in order. Rays are searched several at a time in SIMD lanes
+    /// [`ImpostorRays::covers`] for many pixels at once: `f(i, covered)` once for each
+    /// `(i, x, y)` of `pixels`, not in order (rays the binary search decides are reported a
+    /// few pixels late). Rays are searched several at a time in SIMD lanes
     /// (eight in AVX registers where the processor has AVX2, else four in SSE registers), and
     /// the binary searches left to do as well, so that their dependent lookups overlap. Each
     /// lane performs exactly the operations of the scalar rule, so the answer does not depend
@@ -358,9 +359,10 @@ impl ImpostorRays {
         });
     }
 
-    /// [`ImpostorRays::trace`] for many pixels at once: `f(i, trace)` for each `(i, x, y)` of
-    /// `pixels`, in order, searched in SIMD lanes as [`ImpostorRays::covers_many`] does (with
-    /// no shortcut: every hit's fragment is located), with the same answer as the scalar rule.
+    /// [`ImpostorRays::trace`] for many pixels at once: `f(i, trace)` once for each
+    /// `(i, x, y)` of `pixels`, not in order, searched in SIMD lanes as
+    /// [`ImpostorRays::covers_many`] does (with no shortcut: every hit's fragment is located),
+    /// with the same answer as the scalar rule.
     pub fn trace_many(
         &self,
         depth: &[u8],
@@ -476,8 +478,8 @@ impl ImpostorRays {
         V::from_array(codes)
     }
 
-    /// [`ImpostorRays::covers`] for up to `W` pixels in lockstep, but for the binary search:
-    /// rules 1 to 4 and, given `walls`, the shortcuts; the same operations lane by lane.
+    /// [`ImpostorRays::linear`] for up to `W` pixels in lockstep (rules 1 to 4) and, given
+    /// `walls`, the shortcuts of [`ImpostorRays::quick`]; the same operations lane by lane.
     #[inline(always)]
     fn linear_lanes<V: Lanes<W>, const W: usize>(
         &self,
@@ -544,39 +546,36 @@ impl ImpostorRays {
             searching = searching.and_not(below);
             lo = V::select(searching, z, lo);
         }
-        // The shortcuts need the texels of both ends of the bracket.
-        let (in_lo, xl, yl) = self.texels_lanes::<V, W>(ox.add(lo.mul(dx)), oy.add(lo.mul(dy)));
-        let (in_hi, xh, yh) = self.texels_lanes::<V, W>(ox.add(hi.mul(dx)), oy.add(hi.mul(dy)));
-        let (ox, oy, lo, hi) = (ox.to_array(), oy.to_array(), lo.to_array(), hi.to_array());
-        let mut lanes = [Lane::Miss; W];
-        for (l, lane) in lanes.iter_mut().enumerate() {
-            if hi[l].is_nan() {
-                continue;
+        let (oxs, oys, los, his) = (ox.to_array(), oy.to_array(), lo.to_array(), hi.to_array());
+        let mut lanes: [Lane; W] = std::array::from_fn(|l| {
+            if his[l].is_nan() {
+                Lane::Miss
+            } else {
+                Lane::Refine(Bracket {
+                    ox: oxs[l],
+                    oy: oys[l],
+                    lo: los[l],
+                    hi: his[l],
+                })
             }
-            if let Some(walls) = walls
-                && in_lo[l]
-                && in_hi[l]
-            {
+        });
+        // The shortcuts, which need the texels of both ends of the bracket.
+        if let Some(walls) = walls {
+            let (in_lo, xl, yl) = self.texels_lanes::<V, W>(ox.add(lo.mul(dx)), oy.add(lo.mul(dy)));
+            let (in_hi, xh, yh) = self.texels_lanes::<V, W>(ox.add(hi.mul(dx)), oy.add(hi.mul(dy)));
+            for (l, lane) in lanes.iter_mut().enumerate() {
+                if !(matches!(lane, Lane::Refine(_)) && in_lo[l] && in_hi[l]) {
+                    continue;
+                }
                 let (tl, th) = (
                     (xl[l] as usize, yl[l] as usize),
                     (xh[l] as usize, yh[l] as usize),
                 );
-                if tl == th {
-                    *lane = Lane::Covered;
-                    continue;
-                }
                 let ((x0, x1), (y0, y1)) = (minmax(tl.0, th.0), minmax(tl.1, th.1));
-                if self.adjacent_end && !walls.any(x0, y0, x1, y1) {
+                if tl == th || (self.adjacent_end && !walls.any(x0, y0, x1, y1)) {
                     *lane = Lane::Covered;
-                    continue;
                 }
             }
-            *lane = Lane::Refine(Bracket {
-                ox: ox[l],
-                oy: oy[l],
-                lo: lo[l],
-                hi: hi[l],
-            });
         }
         lanes
     }
@@ -707,8 +706,10 @@ impl ImpostorRays {
 
 /// What the lockstep search reports for one pixel.
 enum Found {
-    /// A fragment, not located: one of the shortcuts of [`ImpostorRays::covers`].
+    /// A fragment, not located: one of the shortcuts of [`ImpostorRays::covers`], taken only
+    /// given a wall map.
     Covered,
+    /// What [`ImpostorRays::trace`] gives.
     Traced(Trace),
 }
 
@@ -716,6 +717,7 @@ enum Found {
 #[derive(Clone, Copy)]
 enum Lane {
     Miss,
+    /// A shortcut decided it is a hit (only given a wall map).
     Covered,
     /// The binary search and the wall test decide.
     Refine(Bracket),

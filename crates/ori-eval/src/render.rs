@@ -121,7 +121,8 @@ impl Layer {
 }
 
 /// The pixels `(index, x, y)` of `within` (all pixels when `None`) inside the footprint of
-/// `rays`, in increasing index order: what the lockstep search takes.
+/// `rays`, row by row, so that the lockstep search's lanes hold neighbouring rays (similar
+/// steps, nearby texels).
 pub(crate) fn pixels_to_trace(
     rays: &ImpostorRays,
     size: u32,

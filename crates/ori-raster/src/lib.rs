@@ -5,7 +5,8 @@
 //! pixel centres, fill rule and depth ties.
 //!
 //! The small geometric functions are `#[inline]`: other crates call them per pixel, and
-//! without a hint they are not inlined across crates.
+//! without the hint (and without LTO) only the tiniest leaf functions are inlined across
+//! crates.
 //!
 //! Conventions:
 //! - A [`Frame`] (u, v, d) is right-handed (u x v = d); `d` points from the object towards the
