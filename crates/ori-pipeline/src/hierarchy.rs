@@ -109,7 +109,7 @@ impl HierarchyParams {
             return place.clone();
         }
         ori_place::PlaceParams {
-            closest: most_drawn.clamp(1, 16),
+            closest: most_drawn.clamp(1, ori_place::MAX_CLOSEST),
             ..place.clone()
         }
     }

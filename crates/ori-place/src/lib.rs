@@ -64,6 +64,9 @@ use ori_views::{ViewError, ViewPlan};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+/// The most closest impostors a view may be measured with ([`PlaceParams::closest`]).
+pub const MAX_CLOSEST: u32 = 16;
+
 /// The `[place]` section of `pipeline.toml`.
 #[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, default)]
@@ -112,9 +115,9 @@ impl PlaceParams {
                 self.step_deg
             )));
         }
-        if !(1..=16).contains(&self.closest) {
+        if !(1..=MAX_CLOSEST).contains(&self.closest) {
             return Err(PlaceError::Params(format!(
-                "place.closest = {} is out of range (1 to 16)",
+                "place.closest = {} is out of range (1 to {MAX_CLOSEST})",
                 self.closest
             )));
         }
