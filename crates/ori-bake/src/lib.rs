@@ -28,7 +28,9 @@ mod png;
 mod sample;
 
 use ori_mesh::{AlphaMode, Mesh};
-use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize, rasterize_scales};
+use std::sync::Arc;
+
+use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, Raster, rasterize, rasterize_scales};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -101,8 +103,7 @@ pub fn bake(
     directions: &[[f64; 3]],
     params: &BakeParams,
 ) -> Result<ReliefSet, BakeError> {
-    params.validate()?;
-    bake_valid(mesh, directions, params)
+    Baker::new(mesh).bake(directions, params)
 }
 
 /// [`bake`] at any resolution from 8 to 8192 texels, for maps that never become a package's
@@ -112,85 +113,159 @@ pub fn bake_any_resolution(
     directions: &[[f64; 3]],
     params: &BakeParams,
 ) -> Result<ReliefSet, BakeError> {
-    if !(8..=8192).contains(&params.resolution) {
-        return Err(BakeError::Params(format!(
-            "resolution {} must be 8 to 8192 texels",
-            params.resolution
-        )));
-    }
-    BakeParams {
-        resolution: params.resolution.next_power_of_two(),
-        ..params.clone()
-    }
-    .validate()?;
-    bake_valid(mesh, directions, params)
+    Baker::new(mesh).bake_any_resolution(directions, params)
 }
 
-fn bake_valid(
-    mesh: &Mesh,
-    directions: &[[f64; 3]],
-    params: &BakeParams,
-) -> Result<ReliefSet, BakeError> {
-    if directions
-        .iter()
-        .any(|d| !d.iter().all(|c| c.is_finite()) || d.iter().all(|&c| c == 0.0))
-    {
-        return Err(BakeError::Params(
-            "a direction is zero or not finite".into(),
-        ));
+/// What every bake of one mesh shares: its textures, decoded and mipmapped, and which
+/// triangles are alpha-tested and culled from behind. Keep one to bake a mesh many times.
+pub struct Baker<'m> {
+    mesh: &'m Mesh,
+    textures: Arc<Textures>,
+    /// Per triangle: alpha-tested, and culled from behind (as the reference mesh is drawn).
+    masked: Vec<bool>,
+    single_sided: Vec<bool>,
+}
+
+impl<'m> Baker<'m> {
+    pub fn new(mesh: &'m Mesh) -> Baker<'m> {
+        Baker::with_textures(mesh, Arc::new(Textures::new(mesh)))
     }
-    let shader = sample::Shader::new(mesh);
-    let masked: Vec<bool> = mesh
-        .triangle_materials
-        .iter()
-        .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
-        .collect();
-    let single_sided = mesh.single_sided();
-    let faces = Faces {
-        masked: &masked,
-        single_sided: &single_sided,
-    };
-    let maps = directions
-        .par_iter()
-        .enumerate()
-        .map(|(index, &direction)| {
-            bake_one(mesh, &shader, &faces, direction, params).map_err(|reason| BakeError::Frame {
-                index,
-                direction,
-                reason,
-            })
+
+    /// A baker of a mesh with the same materials and textures as the one `textures` were
+    /// made for (a part of it, or a simplified copy).
+    pub fn with_textures(mesh: &'m Mesh, textures: Arc<Textures>) -> Baker<'m> {
+        Baker {
+            mesh,
+            textures,
+            masked: mesh
+                .triangle_materials
+                .iter()
+                .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
+                .collect(),
+            single_sided: mesh.single_sided(),
+        }
+    }
+
+    pub fn textures(&self) -> &Arc<Textures> {
+        &self.textures
+    }
+
+    /// See [`bake`].
+    pub fn bake(
+        &self,
+        directions: &[[f64; 3]],
+        params: &BakeParams,
+    ) -> Result<ReliefSet, BakeError> {
+        params.validate()?;
+        self.bake_valid(directions, params)
+    }
+
+    /// See [`bake_any_resolution`].
+    pub fn bake_any_resolution(
+        &self,
+        directions: &[[f64; 3]],
+        params: &BakeParams,
+    ) -> Result<ReliefSet, BakeError> {
+        if !(8..=8192).contains(&params.resolution) {
+            return Err(BakeError::Params(format!(
+                "resolution {} must be 8 to 8192 texels",
+                params.resolution
+            )));
+        }
+        BakeParams {
+            resolution: params.resolution.next_power_of_two(),
+            ..params.clone()
+        }
+        .validate()?;
+        self.bake_valid(directions, params)
+    }
+
+    /// The map of the mesh through `view` (any view of 8 to 8192 texels, such as another
+    /// mesh's evaluation view), and the raster of its texel centres: the mesh's exact heights
+    /// and triangles there, which the evaluator's reference render needs beside the map.
+    pub fn bake_view(
+        &self,
+        view: &OrthoView,
+        supersample: u32,
+    ) -> Result<(ReliefMap, Raster), BakeError> {
+        if !(8..=8192).contains(&view.size) {
+            return Err(BakeError::Params(format!(
+                "a view of {} texels: it must be 8 to 8192",
+                view.size
+            )));
+        }
+        BakeParams {
+            resolution: view.size.next_power_of_two(),
+            supersample,
+            margin: 0,
+        }
+        .validate()?;
+        bake_one(self, *view, supersample).map_err(|reason| BakeError::Frame {
+            index: 0,
+            direction: view.frame.d,
+            reason,
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(ReliefSet { maps })
-}
+    }
 
-/// Per triangle: alpha-tested, and culled from behind (as the reference mesh is drawn).
-struct Faces<'a> {
-    masked: &'a [bool],
-    single_sided: &'a [bool],
+    fn bake_valid(
+        &self,
+        directions: &[[f64; 3]],
+        params: &BakeParams,
+    ) -> Result<ReliefSet, BakeError> {
+        if directions
+            .iter()
+            .any(|d| !d.iter().all(|c| c.is_finite()) || d.iter().all(|&c| c == 0.0))
+        {
+            return Err(BakeError::Params(
+                "a direction is zero or not finite".into(),
+            ));
+        }
+        let maps = directions
+            .par_iter()
+            .enumerate()
+            .map(|(index, &direction)| {
+                let frame = Frame::from_direction(direction);
+                OrthoView::fit(
+                    frame,
+                    &self.mesh.positions,
+                    params.resolution,
+                    params.margin,
+                )
+                .map_err(|e| e.0)
+                .and_then(|view| bake_one(self, view, params.supersample))
+                .map(|(map, _)| map)
+                .map_err(|reason| BakeError::Frame {
+                    index,
+                    direction,
+                    reason,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(ReliefSet { maps })
+    }
 }
 
 fn bake_one(
-    mesh: &Mesh,
-    shader: &sample::Shader<'_>,
-    faces: &Faces<'_>,
-    direction: [f64; 3],
-    params: &BakeParams,
-) -> Result<ReliefMap, String> {
-    let frame = Frame::from_direction(direction);
-    let view = OrthoView::fit(frame, &mesh.positions, params.resolution, params.margin)
-        .map_err(|e| e.0)?;
+    baker: &Baker<'_>,
+    view: OrthoView,
+    supersample: u32,
+) -> Result<(ReliefMap, Raster), String> {
+    let (mesh, frame) = (baker.mesh, view.frame);
+    let shader = &sample::Shader {
+        mesh,
+        textures: &baker.textures,
+    };
     let keep = |tri: u32, bary: [f32; 3]| shader.alpha_keeps(tri, bary);
     let alpha = AlphaTest {
-        masked: faces.masked,
+        masked: &baker.masked,
         keep: &keep,
     };
-    let alpha = faces.masked.iter().any(|&m| m).then_some(&alpha);
-    let single_sided = Some(faces.single_sided);
+    let alpha = baker.masked.iter().any(|&m| m).then_some(&alpha);
+    let single_sided = Some(baker.single_sided.as_slice());
 
-    let n = params.resolution as usize;
-    let s = params.supersample as usize;
-    let fine_view = view.with_size(params.resolution * params.supersample);
+    let n = view.size as usize;
+    let s = supersample as usize;
+    let fine_view = view.with_size(view.size * supersample);
     // Depth and coverage at texel centres, colour and normal from the sub-samples: one pass.
     let mut rasters = if s == 1 {
         vec![rasterize(
@@ -207,7 +282,7 @@ fn bake_one(
             &mesh.triangles,
             alpha,
             single_sided,
-            &[1, params.supersample],
+            &[1, supersample],
         )
     };
     let fine = rasters.pop().expect("at least one raster");
@@ -232,7 +307,9 @@ fn bake_one(
         let ratio = texel_area / (projected / sample_area);
         let material =
             mesh.materials[mesh.triangle_materials[tri as usize] as usize].base_color_texture;
-        material.map_or(0, |t| shader.mips[t as usize].level_for(ratio))
+        material
+            .and_then(|t| baker.textures.mips(t))
+            .map_or(0, |m| m.level_for(ratio))
     };
 
     let encoder = sample::SrgbEncoder::new();
@@ -311,12 +388,14 @@ fn bake_one(
             [x, y].map(|c| ((c.clamp(-1.0, 1.0) + 1.0) * 0.5 * 255.0).round() as u8)
         })
         .collect();
-    Ok(ReliefMap {
+    let map = ReliefMap {
         view,
         depth,
         normal,
         albedo,
-    })
+    };
+    Ok((map, centre))
 }
 
 pub use png::write_pngs;
+pub use sample::Textures;

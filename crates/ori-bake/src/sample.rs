@@ -173,25 +173,46 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
     r as usize
 }
 
-/// Everything needed to shade samples of one mesh.
-pub(crate) struct Shader<'m> {
-    pub mesh: &'m Mesh,
-    pub mips: Vec<MipChain>,
+/// A mesh's base-colour textures, decoded to linear and mipmapped once for every bake of the
+/// mesh, or of a part of it that keeps its materials and textures.
+pub struct Textures {
+    /// Per texture of the mesh; `None` for those no material reads as its base colour.
+    mips: Vec<Option<MipChain>>,
 }
 
-impl<'m> Shader<'m> {
-    pub fn new(mesh: &'m Mesh) -> Shader<'m> {
+impl Textures {
+    pub fn new(mesh: &Mesh) -> Textures {
         let decode = srgb_decode_table();
-        Shader {
-            mesh,
+        let used: Vec<bool> = (0..mesh.textures.len())
+            .map(|t| {
+                mesh.materials
+                    .iter()
+                    .any(|m| m.base_color_texture == Some(t as u32))
+            })
+            .collect();
+        Textures {
             mips: mesh
                 .textures
                 .iter()
-                .map(|t| MipChain::new(t, &decode))
+                .zip(used)
+                .map(|(t, used)| used.then(|| MipChain::new(t, &decode)))
                 .collect(),
         }
     }
 
+    /// The mip chain of texture `t`, when a material reads it as its base colour.
+    pub(crate) fn mips(&self, t: u32) -> Option<&MipChain> {
+        self.mips.get(t as usize)?.as_ref()
+    }
+}
+
+/// Everything needed to shade samples of one mesh.
+pub(crate) struct Shader<'m> {
+    pub mesh: &'m Mesh,
+    pub textures: &'m Textures,
+}
+
+impl<'m> Shader<'m> {
     fn uv(&self, tri: u32, bary: [f32; 3]) -> [f32; 2] {
         match &self.mesh.uvs {
             Some(uvs) => {
@@ -212,8 +233,10 @@ impl<'m> Shader<'m> {
     pub fn base_color(&self, tri: u32, bary: [f32; 3], level: usize) -> [f32; 4] {
         let material = &self.mesh.materials[self.mesh.triangle_materials[tri as usize] as usize];
         let mut c = material.base_color_factor;
-        if let Some(t) = material.base_color_texture {
-            let mip = &self.mips[t as usize];
+        if let Some(mip) = material
+            .base_color_texture
+            .and_then(|t| self.textures.mips(t))
+        {
             let s = mip.sample(level.min(mip.levels.len() - 1), self.uv(tri, bary));
             for k in 0..4 {
                 c[k] *= s[k];
@@ -255,7 +278,7 @@ impl<'m> Shader<'m> {
         let uvs = self.mesh.uvs.as_ref()?;
         let [a, b, c] = self.mesh.triangles[tri as usize].map(|i| uvs[i as usize].map(f64::from));
         let area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs();
-        Some(area * self.mips[t as usize].texel_density())
+        Some(area * self.textures.mips(t)?.texel_density())
     }
 
     /// Unit shading normal at the sample, turned to the side of the surface the viewer sees.

@@ -5,7 +5,10 @@
 //! A test holds the two equal.
 
 use ori_mesh::Mesh;
-use ori_raster::{OrthoView, SLACK, any_centre, ceil_nonneg, faces_away, fmax, fmin, row_span};
+use ori_raster::{
+    BEFORE_THE_FIRST, OrthoView, SLACK, any_centre, ceil_nonneg, centre_gap, covers_no_centre,
+    faces_away, fmax, fmin, row_span,
+};
 
 use crate::Mask;
 use crate::reference::AlphaCut;
@@ -84,9 +87,6 @@ impl CoverageMesh {
     }
 }
 
-/// Keys at or above this mark corners that are not strictly between two centre lines.
-const KEYED: u32 = 1 << 31;
-
 /// Per-vertex data of one view, reused between views (a fresh multi-megabyte buffer per
 /// view costs page faults): the first test's column and row keys, read for every triangle,
 /// apart from the exact screen positions, read for the few that pass it, so that the hot
@@ -117,22 +117,6 @@ fn coverage_with(
 ) -> Mask {
     let n = view.size as usize;
     let mut mask = Mask::new(view.size);
-    // A first test cheaper than `ori_raster`'s (and as conservative): a triangle whose three
-    // corners lie strictly between the same two pixel-centre columns (or rows) covers no
-    // pixel centre. Per corner, the column index `floor(x - 0.5)`; a corner exactly on a
-    // centre line, or off the image, gets a key of its own, so its triangle is always tested.
-    let key = |v: f64, vertex: usize| -> u32 {
-        let c = v - 0.5;
-        if c >= 0.0 && c < f64::from(view.size) {
-            let k = c as u32;
-            if f64::from(k) != c {
-                return k;
-            }
-        } else if c < 0.0 && c > -1.0 {
-            return u32::MAX; // between the image edge and the first centre
-        }
-        (1 << 31) | vertex as u32
-    };
     // `OrthoView::project` without the depth, operation for operation.
     let (u, v) = (view.frame.u, view.frame.v);
     let scale = f64::from(view.size) / (2.0 * view.half_size);
@@ -144,25 +128,27 @@ fn coverage_with(
         let lv = v[0] * p[0] + v[1] * p[1] + v[2] * p[2];
         [(lu - cx + view.half_size) * scale, (cy - lv) * scale]
     }));
+    // A first test cheaper than the exact one: a triangle whose three corners lie strictly
+    // between the same two pixel-centre columns (or rows) covers no pixel centre.
     corners.keys.clear();
     let exact = &corners.exact;
     corners.keys.extend(
         exact
             .iter()
-            .enumerate()
-            .map(|(i, s)| [key(s[0], i), key(s[1], i)]),
+            .map(|s| [centre_gap(s[0], view.size), centre_gap(s[1], view.size)]),
     );
     let keys = &corners.keys;
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let [ka, kb, kc] = tri.map(|i| keys[i as usize]);
-        if (ka[0] == kb[0] && kb[0] == kc[0]) || (ka[1] == kb[1] && kb[1] == kc[1]) {
+        if (0..2).any(|k| covers_no_centre([ka[k], kb[k], kc[k]])) {
             continue;
         }
         // With plain keys the candidate centres are columns min + 1 ..= max (likewise rows):
         // nothing to do when they are all covered already, the common case on dense scans.
         let range = |k: usize| {
             let (p, q, r) = (ka[k], kb[k], kc[k]);
-            (p < KEYED && q < KEYED && r < KEYED).then(|| (p.min(q).min(r) + 1, p.max(q).max(r)))
+            (p < BEFORE_THE_FIRST && q < BEFORE_THE_FIRST && r < BEFORE_THE_FIRST)
+                .then(|| (p.min(q).min(r) + 1, p.max(q).max(r)))
         };
         if let (Some((x0, x1)), Some((y0, y1))) = (range(0), range(1))
             && all_covered(&mask, n, x0 as usize, x1 as usize, y0 as usize, y1 as usize)

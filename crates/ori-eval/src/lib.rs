@@ -112,12 +112,11 @@ pub use part::Whole;
 pub use reference::eval_view;
 pub use render::{Layer, NO_SOURCE, Render};
 
-/// The full render of any mesh through `view` (what [`Evaluator::render_mesh`] draws for a
-/// whole model), for drawing another mesh, such as a simplified one, in the evaluation view
-/// of the original.
-pub fn render_mesh(mesh: &Mesh, view: &OrthoView) -> Result<Render, EvalError> {
-    let alpha = reference::AlphaCut::new(mesh);
-    reference::render(mesh, alpha.as_ref(), &mesh.single_sided(), view)
+/// The full render of any mesh (the baker's) through `view` (what
+/// [`Evaluator::render_mesh`] draws for a whole model), for drawing another mesh, such as a
+/// simplified one, in the evaluation view of the original.
+pub fn render_mesh(mesh: &ori_bake::Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
+    reference::render(mesh, view)
 }
 
 /// Which fragment wins where several impostors draw the same pixel (ORI paper, 3.3).
@@ -222,13 +221,13 @@ pub struct Evaluator<'a> {
     set: &'a ReliefSet,
     params: EvalParams,
     alpha: Option<reference::AlphaCut<'a>>,
+    /// The mesh's textures, read by every reference render (made by the first).
+    baker: std::sync::OnceLock<ori_bake::Baker<'a>>,
     /// Per map, where its walls are (for the fast coverage test).
     walls: Vec<WallMap>,
     /// Per map, its occupied volume and column grid (rule 2).
     occupancy: Vec<march::Occupancy>,
     coverage_mesh: coverage::CoverageMesh,
-    /// [`Mesh::single_sided`], for the reference raster.
-    single_sided: Vec<bool>,
     /// When the mesh is a part of a larger model: the model (see [`Evaluator::part_of`]).
     whole: Option<part::WholeModel<'a>>,
 }
@@ -256,20 +255,19 @@ impl<'a> Evaluator<'a> {
                 )));
             }
         }
-        let single_sided = mesh.single_sided();
         Ok(Evaluator {
             mesh,
             set,
             params: params.clone(),
             alpha: reference::AlphaCut::new(mesh),
+            baker: std::sync::OnceLock::new(),
             walls: set
                 .maps
                 .iter()
                 .map(|m| WallMap::new(&m.depth, m.size(), params.march().threshold_codes()))
                 .collect(),
             occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
-            coverage_mesh: coverage::CoverageMesh::new(mesh, &single_sided),
-            single_sided,
+            coverage_mesh: coverage::CoverageMesh::new(mesh, &mesh.single_sided()),
             whole: None,
         })
     }
@@ -330,8 +328,8 @@ impl<'a> Evaluator<'a> {
 
     /// The full reference render of the mesh (for a part, of its own pixels only).
     pub fn render_mesh(&self, view: &OrthoView) -> Result<Render, EvalError> {
-        let mut render =
-            reference::render(self.mesh, self.alpha.as_ref(), &self.single_sided, view)?;
+        let baker = self.baker.get_or_init(|| ori_bake::Baker::new(self.mesh));
+        let mut render = reference::render(baker, view)?;
         if let Some(whole) = &self.whole {
             let hidden = whole.in_front(view, &render.coverage);
             for i in hidden.ones() {

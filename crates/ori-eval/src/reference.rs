@@ -2,7 +2,7 @@
 //! alpha test as baking), and the full render (depth, albedo, normal) that colour and depth
 //! errors compare against.
 
-use ori_bake::BakeParams;
+use ori_bake::Baker;
 use ori_mesh::{AlphaMode, Mesh, Wrap};
 use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
 use ori_relief::{EMPTY_DEPTH, ReliefMap};
@@ -135,26 +135,14 @@ pub(crate) fn raster(
 }
 
 /// The full reference: coverage and exact depth from the rasterizer, albedo and normal from a
-/// relief map baked along the view itself (same shading, filtering and 8-bit encoding as the
-/// impostors, so colour errors measure the impostors and not a difference of shaders).
-pub(crate) fn render(
-    mesh: &Mesh,
-    alpha: Option<&AlphaCut<'_>>,
-    single_sided: &[bool],
-    view: &OrthoView,
-) -> Result<Render, EvalError> {
-    let r = raster(mesh, alpha, single_sided, view);
-    let params = BakeParams {
-        resolution: view.size,
-        supersample: 2,
-        margin: 0,
-    };
-    let map = ori_bake::bake(mesh, &[view.frame.d], &params)
-        .map_err(|e| EvalError::View(e.to_string()))?
-        .maps
-        .pop()
-        .expect("one direction, one map");
-    debug_assert_eq!(map.view, *view);
+/// relief map baked through the view itself (same shading, filtering and 8-bit encoding as
+/// the impostors, so colour errors measure the impostors and not a difference of shaders).
+/// The bake's alpha test and culling are the reference's (see [`AlphaCut`]), so its raster
+/// of texel centres is the reference's raster.
+pub(crate) fn render(baker: &Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
+    let (map, r) = baker
+        .bake_view(view, 2)
+        .map_err(|e| EvalError::View(e.to_string()))?;
     let n = view.size as usize;
     let mut out = Render::empty(view.size);
     for i in 0..n * n {

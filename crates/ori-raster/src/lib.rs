@@ -266,33 +266,47 @@ pub fn rasterize_scales(
         .iter()
         .map(|p| fine_view.project(p.map(f64::from)))
         .collect();
-    // Compact f32 screen positions for a first, conservative test: most triangles of a dense
-    // scan cover no pixel centre, and rejecting them from a small array is cheap. The exact
-    // test (`draw`) is in f64.
-    let screen: Vec<[f32; 2]> = projected
-        .iter()
-        .map(|p| [p[0] as f32, p[1] as f32])
-        .collect();
+    // A first test from a small array: per corner and raster, the gap between pixel-centre
+    // columns (and rows) it lies in. Most triangles of a dense scan cover no pixel centre, and
+    // comparing three keys rejects them. Dividing by a power of two is exact, so the keys
+    // are those of the scaled coordinates `draw` sees.
+    let stride = scales.len();
+    assert!(stride <= 32, "at most 32 scales");
+    let mut keys = vec![[0u32; 2]; positions.len() * stride];
+    for (p, corner) in projected.iter().zip(keys.chunks_exact_mut(stride)) {
+        for ((key, out), &scale) in corner.iter_mut().zip(&outs).zip(scales) {
+            let down = f64::from(finest / scale);
+            *key = [0, 1].map(|k| centre_gap(p[k] / down, out.size));
+        }
+    }
     for (t, tri) in triangles.iter().enumerate() {
-        let [sa, sb, sc] = tri.map(|i| screen[i as usize]);
-        let lo = [0, 1].map(|k| fmin(fmin(sa[k], sb[k]), sc[k]));
-        let hi = [0, 1].map(|k| fmax(fmax(sa[k], sb[k]), sc[k]));
-        let mut corners = None;
-        for (out, &scale) in outs.iter_mut().zip(scales) {
-            // Pixel centres of this raster sit at (i + 0.5) * down in the finest coordinates.
-            let down = (finest / scale) as f32;
-            let n = out.size as usize;
-            let covers =
-                |k: usize| any_centre(lo[k] / down - 0.5 - SLACK, hi[k] / down - 0.5 + SLACK, n);
-            if !(covers(0) && covers(1)) {
+        let corners = tri.map(|i| &keys[i as usize * stride..][..stride]);
+        // Bit k: the triangle may cover a pixel centre of raster k.
+        let mut candidate = 0u32;
+        for k in 0..stride {
+            if (0..2).all(|axis| !covers_no_centre(corners.map(|c| c[k][axis]))) {
+                candidate |= 1 << k;
+            }
+        }
+        if candidate == 0 {
+            continue;
+        }
+        let exact = tri.map(|i| projected[i as usize]);
+        let culled = single_sided.is_some_and(|s| s.get(t).copied().unwrap_or(false));
+        // Skipping here what `draw` would skip at every scale: a degenerate or (culled)
+        // back-facing triangle keeps its area's sign and zero at every power-of-two scale.
+        let area = edge(exact[0], exact[1], exact[2]);
+        if area == 0.0 || (culled && area.is_finite() && faces_away(area)) {
+            continue;
+        }
+        let masked = alpha.is_some_and(|al| al.masked.get(t).copied().unwrap_or(false));
+        for (k, (out, &scale)) in outs.iter_mut().zip(scales).enumerate() {
+            if candidate & (1 << k) == 0 {
                 continue;
             }
-            let exact = *corners.get_or_insert_with(|| tri.map(|i| projected[i as usize]));
             // Dividing by a power of two is exact.
             let down = f64::from(finest / scale);
             let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] / down, p[1] / down, p[2]]);
-            let masked = alpha.is_some_and(|al| al.masked.get(t).copied().unwrap_or(false));
-            let culled = single_sided.is_some_and(|s| s.get(t).copied().unwrap_or(false));
             draw(out, t, a, b, c, masked.then_some(alpha).flatten(), culled);
         }
     }
@@ -449,6 +463,40 @@ pub fn row_span(
     let first = ceil_nonneg(lo).max(x0);
     let last = (hi as usize).min(x1);
     (first <= last).then_some((first, last))
+}
+
+/// The [`centre_gap`] of a coordinate on a pixel-centre line (or NaN): it matches no other.
+pub const ON_A_CENTRE: u32 = u32::MAX;
+/// The [`centre_gap`] of a coordinate before the first pixel centre.
+pub const BEFORE_THE_FIRST: u32 = u32::MAX - 1;
+
+/// Which gap between the `n` pixel centres `i + 0.5` a screen coordinate `v` lies in: `k`
+/// strictly between centres `k` and `k + 1` (`n - 1` past the last), [`BEFORE_THE_FIRST`],
+/// or [`ON_A_CENTRE`]. Plain gaps are below `n`.
+#[inline]
+pub fn centre_gap(v: f64, n: u32) -> u32 {
+    let c = v - 0.5;
+    if c < 0.0 {
+        return BEFORE_THE_FIRST;
+    }
+    if c > f64::from(n.saturating_sub(1)) {
+        return n.saturating_sub(1);
+    }
+    if c >= 0.0 {
+        let k = c as u32;
+        if f64::from(k) != c {
+            return k;
+        }
+    }
+    ON_A_CENTRE
+}
+
+/// Whether a triangle whose corners lie in the centre gaps `gaps` (along one axis) lies
+/// between the same two centre lines, so that it covers no pixel centre (exact, not only
+/// conservative).
+#[inline]
+pub fn covers_no_centre([a, b, c]: [u32; 3]) -> bool {
+    a == b && b == c && a != ON_A_CENTRE
 }
 
 /// Screen-space slack of the f32 pre-test, far above f32 rounding at any image size we use.
@@ -609,6 +657,64 @@ mod tests {
             both[1],
             rasterize(&view.with_size(8 * 4), &p, &t, None, None)
         );
+    }
+
+    #[test]
+    fn first_tests_and_early_culling_change_no_pixel() {
+        // Small triangles with corners on, beside and between pixel centres (eighth-pixel
+        // steps at the coarse scale, half-pixel steps at the finest), some off the image, half
+        // of them single-sided: each raster must equal the exact test alone (`draw` on every
+        // triangle).
+        let view = OrthoView {
+            frame: Frame::from_direction([0.0, 0.0, 1.0]),
+            center: [0.5, 0.5],
+            half_size: 0.5,
+            near: 3.0,
+            far: -1.0,
+            size: 8,
+        };
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = |k: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % k
+        };
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        for i in 0..3000u32 {
+            let x = (next(80) as f32 - 8.0) / 64.0;
+            let y = (next(80) as f32 - 8.0) / 64.0;
+            for _ in 0..3 {
+                let dx = (next(9) as f32 - 4.0) / 64.0;
+                let dy = (next(9) as f32 - 4.0) / 64.0;
+                p.push([x + dx, 1.0 - (y + dy), next(8) as f32 / 8.0]);
+            }
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let single: Vec<bool> = (0..t.len()).map(|i| i % 2 == 0).collect();
+        let scales = [1, 2, 4];
+        let fast = rasterize_scales(&view, &p, &t, None, Some(&single), &scales);
+        let fine = view.with_size(8 * 4);
+        for (raster, scale) in fast.iter().zip(scales) {
+            let size = 8 * scale;
+            let n = size as usize * size as usize;
+            let mut exact = Raster {
+                size,
+                height: vec![f64::NEG_INFINITY; n],
+                tri: vec![EMPTY; n],
+                bary: vec![[0.0; 3]; n],
+            };
+            let down = f64::from(4 / scale);
+            for (i, tri) in t.iter().enumerate() {
+                let [a, b, c] = tri.map(|v| {
+                    let q = fine.project(p[v as usize].map(f64::from));
+                    [q[0] / down, q[1] / down, q[2]]
+                });
+                draw(&mut exact, i, a, b, c, None, single[i]);
+            }
+            assert!(exact.covered() > 0);
+            assert_eq!(*raster, exact, "scale {scale}");
+        }
     }
 
     #[test]

@@ -23,7 +23,9 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
-use ori_bake::BakeParams;
+use std::sync::Arc;
+
+use ori_bake::{BakeParams, Baker, Textures};
 use ori_eval::Render;
 use ori_mesh::Mesh;
 use ori_raster::{Frame, OrthoView, dot, normalize};
@@ -430,8 +432,7 @@ pub struct BillboardCloud {
     triangles: usize,
 }
 
-/// `scratch` (a copy of the model) made the cluster's triangles alone; its materials and
-/// textures stay the model's, so no texture is copied per card.
+/// `scratch` (with the model's materials) made the cluster's triangles alone.
 fn submesh_into(mesh: &Mesh, triangles: &[u32], scratch: &mut Mesh) {
     let corners: Vec<u32> = triangles
         .iter()
@@ -454,6 +455,7 @@ impl BillboardCloud {
             reason,
         };
         let mut clouds = Vec::new();
+        let textures = Arc::new(Textures::new(mesh));
         let (centre, radius) = crate::bounding_sphere(mesh, Technique::BillboardCloud)?;
         let snapshots = cluster(mesh, centre, radius, counts);
         if snapshots.iter().all(|s| s.is_empty()) {
@@ -461,8 +463,9 @@ impl BillboardCloud {
         }
         for clusters in snapshots {
             // Per cluster: its frame, a point of its plane, and the side of its texture's
-            // window. Its sub-mesh is made in a copy of the model per worker while its card
-            // is baked, so that neither memory nor time goes to copies of the textures.
+            // window. Its sub-mesh is made in a scratch mesh per worker while its card is
+            // baked with the model's decoded textures, so that neither memory nor time goes
+            // to copies of the textures.
             let planes: Vec<(&[u32], Frame, [f64; 3], f64)> = clusters
                 .iter()
                 .map(|(members, moments)| {
@@ -508,10 +511,20 @@ impl BillboardCloud {
             }
             let cards = planes
                 .par_iter()
-                // At most 64 copies of the model per cloud, however the work is split.
+                // At most 64 scratch meshes per cloud, however the work is split.
                 .with_min_len(planes.len().div_ceil(64).max(1))
                 .map_init(
-                    || mesh.clone(),
+                    // The model's materials; its textures are read decoded, from `textures`.
+                    || Mesh {
+                        positions: Vec::new(),
+                        normals: Vec::new(),
+                        uvs: None,
+                        colors: None,
+                        triangles: Vec::new(),
+                        triangle_materials: Vec::new(),
+                        materials: mesh.materials.clone(),
+                        textures: Vec::new(),
+                    },
                     |scratch, (members, frame, centre, side)| {
                         let params = BakeParams {
                             resolution: edge(lo, *side),
@@ -519,7 +532,8 @@ impl BillboardCloud {
                             margin: 1,
                         };
                         submesh_into(mesh, members, scratch);
-                        let mut set = ori_bake::bake_any_resolution(scratch, &[frame.d], &params)
+                        let mut set = Baker::with_textures(scratch, textures.clone())
+                            .bake_any_resolution(&[frame.d], &params)
                             .map_err(|e| bad(e.to_string()))?;
                         Ok(Card {
                             map: set.maps.pop().expect("one direction, one map"),

@@ -1,6 +1,7 @@
 //! Measuring techniques against the mesh: the evaluator's views, reference and errors, for
 //! every technique in each view (the mesh is rendered once per view).
 
+use ori_bake::Baker;
 use ori_eval::{Mask, Render, Shading, ViewErrors, eval_view};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
@@ -21,9 +22,10 @@ impl References {
             .iter()
             .map(|&w| eval_view(mesh, w, s0))
             .collect::<Result<Vec<_>, _>>()?;
+        let baker = Baker::new(mesh);
         let coverage = views
             .par_iter()
-            .map(|v| ori_eval::render_mesh(mesh, v).map(|r| r.coverage))
+            .map(|v| ori_eval::render_mesh(&baker, v).map(|r| r.coverage))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(References { views, coverage })
     }
@@ -94,11 +96,12 @@ pub fn measure(
     directions: &[[f64; 3]],
     s0: u32,
 ) -> Result<Vec<Vec<Measured>>, RivalError> {
+    let baker = Baker::new(mesh);
     directions
         .par_iter()
         .map(|&w| {
             let view = eval_view(mesh, w, s0)?;
-            let reference = ori_eval::render_mesh(mesh, &view)?;
+            let reference = ori_eval::render_mesh(&baker, &view)?;
             rivals
                 .iter()
                 .map(|r| {
@@ -184,7 +187,8 @@ pub fn picture(
     s0: u32,
 ) -> Result<(u32, u32, Vec<u8>), RivalError> {
     let view = eval_view(mesh, w, s0)?;
-    let mut panels = vec![shaded(&view, &ori_eval::render_mesh(mesh, &view)?)];
+    let reference = ori_eval::render_mesh(&Baker::new(mesh), &view)?;
+    let mut panels = vec![shaded(&view, &reference)];
     for r in rivals {
         panels.push(shaded(&view, &r.draw(&view)?.render));
     }

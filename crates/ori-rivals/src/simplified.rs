@@ -2,6 +2,9 @@
 //! edge-collapse simplifier until its vertex and index buffers fit the budget, drawn with its
 //! own attributes (the evaluator's reference render of the simplified mesh).
 
+use std::sync::Arc;
+
+use ori_bake::{Baker, Textures};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
 
@@ -10,6 +13,8 @@ use crate::{Drawn, Primitive, Rival, RivalError, Technique};
 /// A mesh within a byte budget.
 pub struct SimplifiedMesh {
     mesh: Mesh,
+    /// The model's textures, decoded once for every view drawn.
+    textures: Arc<Textures>,
     /// Triangles of the original.
     original: usize,
 }
@@ -91,6 +96,7 @@ impl SimplifiedMesh {
         if mesh_bytes(per_vertex, mesh.positions.len(), original) <= budget {
             return Ok(SimplifiedMesh {
                 mesh: mesh.clone(),
+                textures: Arc::new(Textures::new(mesh)),
                 original,
             });
         }
@@ -118,7 +124,11 @@ impl SimplifiedMesh {
             budget,
             closest: mesh_bytes(per_vertex, 3, 1),
         })?;
-        Ok(SimplifiedMesh { mesh, original })
+        Ok(SimplifiedMesh {
+            textures: Arc::new(Textures::new(&mesh)),
+            mesh,
+            original,
+        })
     }
 
     pub fn mesh(&self) -> &Mesh {
@@ -201,7 +211,10 @@ impl Rival for SimplifiedMesh {
 
     fn draw(&self, view: &OrthoView) -> Result<Drawn, RivalError> {
         Ok(Drawn {
-            render: ori_eval::render_mesh(&self.mesh, view)?,
+            render: ori_eval::render_mesh(
+                &Baker::with_textures(&self.mesh, self.textures.clone()),
+                view,
+            )?,
             count: self.mesh.triangles.len() as u32,
         })
     }
