@@ -428,13 +428,18 @@ fn draw(
 /// row terms `(to.x - from.x) * (py - from.y)`. The span is conservative (a pixel and a relative
 /// margin beyond the rounded bounds) and the exact tests still decide every pixel inside it, so
 /// it changes no result; it only makes a thin triangle cost its area rather than its bounding
-/// box (a fan of a many-cornered polygon is thousands of long slivers).
+/// box (a fan of a many-cornered polygon is thousands of long slivers). Rows of a few pixels
+/// are returned whole: there the exact tests cost less than the span's divisions.
+#[inline]
 pub fn row_span(
     edges: [([f64; 2], [f64; 2]); 3],
     rows: [f64; 3],
     x0: usize,
     x1: usize,
 ) -> Option<(usize, usize)> {
+    if x1 < x0 + 4 {
+        return Some((x0, x1));
+    }
     let (mut lo, mut hi) = (x0 as f64, x1 as f64);
     for ((from, to), row) in edges.into_iter().zip(rows) {
         let dy = to[1] - from[1];
