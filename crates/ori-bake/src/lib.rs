@@ -116,6 +116,21 @@ pub fn bake_any_resolution(
     Baker::new(mesh).bake_any_resolution(directions, params)
 }
 
+/// [`BakeParams::validate`] for a resolution of 8 to 8192 texels, a power of two or not.
+fn validate_any_resolution(params: &BakeParams) -> Result<(), BakeError> {
+    if !(8..=8192).contains(&params.resolution) {
+        return Err(BakeError::Params(format!(
+            "resolution {} must be 8 to 8192 texels",
+            params.resolution
+        )));
+    }
+    BakeParams {
+        resolution: params.resolution.next_power_of_two(),
+        ..params.clone()
+    }
+    .validate()
+}
+
 /// What every bake of one mesh shares: its textures, decoded and mipmapped, and which
 /// triangles are alpha-tested and culled from behind. Keep one to bake a mesh many times.
 pub struct Baker<'m> {
@@ -166,17 +181,7 @@ impl<'m> Baker<'m> {
         directions: &[[f64; 3]],
         params: &BakeParams,
     ) -> Result<ReliefSet, BakeError> {
-        if !(8..=8192).contains(&params.resolution) {
-            return Err(BakeError::Params(format!(
-                "resolution {} must be 8 to 8192 texels",
-                params.resolution
-            )));
-        }
-        BakeParams {
-            resolution: params.resolution.next_power_of_two(),
-            ..params.clone()
-        }
-        .validate()?;
+        validate_any_resolution(params)?;
         self.bake_valid(directions, params)
     }
 
@@ -188,18 +193,11 @@ impl<'m> Baker<'m> {
         view: &OrthoView,
         supersample: u32,
     ) -> Result<(ReliefMap, Raster), BakeError> {
-        if !(8..=8192).contains(&view.size) {
-            return Err(BakeError::Params(format!(
-                "a view of {} texels: it must be 8 to 8192",
-                view.size
-            )));
-        }
-        BakeParams {
-            resolution: view.size.next_power_of_two(),
+        validate_any_resolution(&BakeParams {
+            resolution: view.size,
             supersample,
             margin: 0,
-        }
-        .validate()?;
+        })?;
         bake_one(self, *view, supersample).map_err(|reason| BakeError::Frame {
             index: 0,
             direction: view.frame.d,

@@ -563,6 +563,18 @@ mod tests {
         )
     }
 
+    /// The unit square [0, 1]^2 seen from +Z at 8 x 8 pixels, depths -1 to 3.
+    fn unit_square_view() -> OrthoView {
+        OrthoView {
+            frame: Frame::from_direction([0.0, 0.0, 1.0]),
+            center: [0.5, 0.5],
+            half_size: 0.5,
+            near: 3.0,
+            far: -1.0,
+            size: 8,
+        }
+    }
+
     #[test]
     fn frames_are_right_handed_and_orthonormal() {
         for d in [
@@ -640,14 +652,7 @@ mod tests {
             [0.5, v + 1e-5, 2.0],
         ]);
         t.push([base, base + 1, base + 2]);
-        let view = OrthoView {
-            frame: Frame::from_direction([0.0, 0.0, 1.0]),
-            center: [0.5, 0.5],
-            half_size: 0.5,
-            near: 3.0,
-            far: -1.0,
-            size: 8,
-        };
+        let view = unit_square_view();
         let both = rasterize_scales(&view, &p, &t, None, None, &[1, 4]);
         assert!(
             both[0].tri.contains(&(t.len() as u32 - 1)),
@@ -670,14 +675,7 @@ mod tests {
         // steps at the coarse scale, half-pixel steps at the finest), some off the image, half
         // of them single-sided: each raster must equal the exact test alone (`draw` on every
         // triangle).
-        let view = OrthoView {
-            frame: Frame::from_direction([0.0, 0.0, 1.0]),
-            center: [0.5, 0.5],
-            half_size: 0.5,
-            near: 3.0,
-            far: -1.0,
-            size: 8,
-        };
+        let view = unit_square_view();
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         let mut next = |k: u64| {
             state ^= state << 13;

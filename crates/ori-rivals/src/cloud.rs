@@ -514,17 +514,8 @@ impl BillboardCloud {
                 // At most 64 scratch meshes per cloud, however the work is split.
                 .with_min_len(planes.len().div_ceil(64).max(1))
                 .map_init(
-                    // The model's materials; its textures are read decoded, from `textures`.
-                    || Mesh {
-                        positions: Vec::new(),
-                        normals: Vec::new(),
-                        uvs: None,
-                        colors: None,
-                        triangles: Vec::new(),
-                        triangle_materials: Vec::new(),
-                        materials: mesh.materials.clone(),
-                        textures: Vec::new(),
-                    },
+                    // The model's textures are read decoded, from `textures`.
+                    || crate::simplified::materials_only(mesh),
                     |scratch, (members, frame, centre, side)| {
                         let params = BakeParams {
                             resolution: edge(lo, *side),

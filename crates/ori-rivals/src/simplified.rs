@@ -34,6 +34,16 @@ fn mesh_bytes(per_vertex: u64, vertices: usize, triangles: usize) -> u64 {
 /// The vertices `indices` use, and the triangles renumbered to them (first use order).
 pub(crate) fn compact(mesh: &Mesh, indices: &[u32], triangles: &[usize]) -> Mesh {
     let mut out = Mesh {
+        textures: mesh.textures.clone(),
+        ..materials_only(mesh)
+    };
+    compact_into(mesh, indices, triangles, &mut out);
+    out
+}
+
+/// A mesh with `mesh`'s materials and nothing else (no geometry, no textures).
+pub(crate) fn materials_only(mesh: &Mesh) -> Mesh {
+    Mesh {
         positions: Vec::new(),
         normals: Vec::new(),
         uvs: None,
@@ -41,10 +51,8 @@ pub(crate) fn compact(mesh: &Mesh, indices: &[u32], triangles: &[usize]) -> Mesh
         triangles: Vec::new(),
         triangle_materials: Vec::new(),
         materials: mesh.materials.clone(),
-        textures: mesh.textures.clone(),
-    };
-    compact_into(mesh, indices, triangles, &mut out);
-    out
+        textures: Vec::new(),
+    }
 }
 
 /// [`compact`] into the geometry of `out`, whose materials and textures (the model's) are
