@@ -146,8 +146,8 @@ impl<'m> Baker<'m> {
         Baker::with_textures(mesh, Arc::new(Textures::new(mesh)))
     }
 
-    /// A baker of a mesh with the same materials and textures as the one `textures` were
-    /// made for (a part of it, or a simplified copy).
+    /// A baker of a mesh with the same materials (so the same texture indices) as the one
+    /// `textures` were made for, such as a part of it; its own textures are not read.
     pub fn with_textures(mesh: &'m Mesh, textures: Arc<Textures>) -> Baker<'m> {
         Baker {
             mesh,
@@ -159,10 +159,6 @@ impl<'m> Baker<'m> {
                 .collect(),
             single_sided: mesh.single_sided(),
         }
-    }
-
-    pub fn textures(&self) -> &Arc<Textures> {
-        &self.textures
     }
 
     /// See [`bake`].
@@ -198,11 +194,7 @@ impl<'m> Baker<'m> {
             supersample,
             margin: 0,
         })?;
-        bake_one(self, *view, supersample).map_err(|reason| BakeError::Frame {
-            index: 0,
-            direction: view.frame.d,
-            reason,
-        })
+        Ok(bake_one(self, *view, supersample))
     }
 
     fn bake_valid(
@@ -229,13 +221,11 @@ impl<'m> Baker<'m> {
                     params.resolution,
                     params.margin,
                 )
-                .map_err(|e| e.0)
-                .and_then(|view| bake_one(self, view, params.supersample))
-                .map(|(map, _)| map)
-                .map_err(|reason| BakeError::Frame {
+                .map(|view| bake_one(self, view, params.supersample).0)
+                .map_err(|e| BakeError::Frame {
                     index,
                     direction,
-                    reason,
+                    reason: e.0,
                 })
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -243,11 +233,7 @@ impl<'m> Baker<'m> {
     }
 }
 
-fn bake_one(
-    baker: &Baker<'_>,
-    view: OrthoView,
-    supersample: u32,
-) -> Result<(ReliefMap, Raster), String> {
+fn bake_one(baker: &Baker<'_>, view: OrthoView, supersample: u32) -> (ReliefMap, Raster) {
     let (mesh, frame) = (baker.mesh, view.frame);
     let shader = &sample::Shader {
         mesh,
@@ -392,7 +378,7 @@ fn bake_one(
         normal,
         albedo,
     };
-    Ok((map, centre))
+    (map, centre)
 }
 
 pub use png::write_pngs;

@@ -174,7 +174,7 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
 }
 
 /// A mesh's base-colour textures, decoded to linear and mipmapped once for every bake of the
-/// mesh, or of a part of it that keeps its materials and textures.
+/// mesh, or of another with the same materials (a part of it).
 pub struct Textures {
     /// Per texture of the mesh; `None` for those no material reads as its base colour.
     mips: Vec<Option<MipChain>>,

@@ -6,8 +6,7 @@
 
 use ori_mesh::Mesh;
 use ori_raster::{
-    BEFORE_THE_FIRST, OrthoView, SLACK, any_centre, ceil_nonneg, centre_gap, covers_no_centre,
-    faces_away, fmax, fmin, row_span,
+    BEFORE_THE_FIRST, OrthoView, ceil_nonneg, centre_gap, covers_no_centre, faces_away, row_span,
 };
 
 use crate::Mask;
@@ -156,15 +155,6 @@ fn coverage_with(
             continue;
         }
         let [a, b, c] = tri.map(|i| exact[i as usize]);
-        let span = |k: usize| {
-            let (sa, sb, sc) = (a[k] as f32, b[k] as f32, c[k] as f32);
-            let lo = fmin(fmin(sa, sb), sc) - 0.5 - SLACK;
-            let hi = fmax(fmax(sa, sb), sc) - 0.5 + SLACK;
-            any_centre(lo, hi, n)
-        };
-        if !(span(0) && span(1)) {
-            continue;
-        }
         let culled = mesh.single_sided[t];
         let t = mesh.original[t] as usize;
         let masked = alpha.filter(|al| al.masked[t]);

@@ -5,7 +5,7 @@
 use ori_bake::Baker;
 use ori_mesh::{AlphaMode, Mesh, Wrap};
 use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
-use ori_relief::{EMPTY_DEPTH, ReliefMap};
+use ori_relief::ReliefMap;
 
 use crate::{EvalError, NO_SOURCE, Render};
 
@@ -149,10 +149,6 @@ pub(crate) fn render(baker: &Baker<'_>, view: &OrthoView) -> Result<Render, Eval
         if r.tri[i] == EMPTY {
             continue;
         }
-        debug_assert_ne!(
-            map.depth[i], EMPTY_DEPTH,
-            "raster and bake agree on coverage"
-        );
         out.coverage.set(i);
         out.depth[i] = view.depth_of_height(r.height[i]) as f32;
         out.albedo[i] = map.albedo[i];

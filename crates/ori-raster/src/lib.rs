@@ -235,7 +235,7 @@ pub fn rasterize(
 /// bit-identical to `rasterize(&view.with_size(view.size * scale), ..)`.
 ///
 /// # Panics
-/// If a scale is not a power of two (a programming error).
+/// If a scale is not a power of two, or there are more than 32 (a programming error).
 pub fn rasterize_scales(
     view: &OrthoView,
     positions: &[[f32; 3]],
@@ -272,6 +272,9 @@ pub fn rasterize_scales(
     // are those of the scaled coordinates `draw` sees.
     let stride = scales.len();
     assert!(stride <= 32, "at most 32 scales");
+    if stride == 0 {
+        return outs;
+    }
     let mut keys = vec![[0u32; 2]; positions.len() * stride];
     for (p, corner) in projected.iter().zip(keys.chunks_exact_mut(stride)) {
         for ((key, out), &scale) in corner.iter_mut().zip(&outs).zip(scales) {
@@ -311,19 +314,6 @@ pub fn rasterize_scales(
         }
     }
     outs
-}
-
-/// `a.min(b)` without NaN handling (a NaN only makes the pre-test pass, and the exact test
-/// rejects it).
-#[inline]
-pub fn fmin(a: f32, b: f32) -> f32 {
-    if a < b { a } else { b }
-}
-
-/// `a.max(b)` without NaN handling (see [`fmin`]).
-#[inline]
-pub fn fmax(a: f32, b: f32) -> f32 {
-    if a > b { a } else { b }
 }
 
 /// The exact test and depth-tested write of one triangle (screen coordinates and heights).
@@ -502,23 +492,6 @@ pub fn centre_gap(v: f64, n: u32) -> u32 {
 #[inline]
 pub fn covers_no_centre([a, b, c]: [u32; 3]) -> bool {
     a == b && b == c && a != ON_A_CENTRE
-}
-
-/// Screen-space slack of the f32 pre-test, far above f32 rounding at any image size we use.
-pub const SLACK: f32 = 1e-2;
-
-/// Whether some pixel-centre index `i` in `0..n` has `lo <= i <= hi` (false for NaN).
-#[inline]
-pub fn any_centre(lo: f32, hi: f32, n: usize) -> bool {
-    if !(hi >= 0.0 && lo <= (n - 1) as f32) {
-        return false;
-    }
-    if lo <= 0.0 {
-        return true;
-    }
-    let t = lo as i32;
-    let first = if (t as f32) < lo { t + 1 } else { t };
-    first as f32 <= hi
 }
 
 /// `ceil(v)` for the pixel range, 0 for negative `v`.

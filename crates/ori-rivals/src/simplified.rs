@@ -13,7 +13,7 @@ use crate::{Drawn, Primitive, Rival, RivalError, Technique};
 /// A mesh within a byte budget.
 pub struct SimplifiedMesh {
     mesh: Mesh,
-    /// The model's textures, decoded once for every view drawn.
+    /// Its textures, decoded once for every view drawn.
     textures: Arc<Textures>,
     /// Triangles of the original.
     original: usize,
@@ -55,8 +55,8 @@ pub(crate) fn materials_only(mesh: &Mesh) -> Mesh {
     }
 }
 
-/// [`compact`] into the geometry of `out`, whose materials and textures (the model's) are
-/// kept: no texture is copied.
+/// [`compact`] into the geometry of `out`, whose materials and textures are kept: no texture
+/// is copied.
 pub(crate) fn compact_into(mesh: &Mesh, indices: &[u32], triangles: &[usize], out: &mut Mesh) {
     let mut remap = vec![u32::MAX; mesh.positions.len()];
     let mut used = Vec::new();
