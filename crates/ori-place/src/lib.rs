@@ -55,7 +55,7 @@
 //! `ori_views::evaluation_directions`, never computed here; the views' directions come from
 //! `ori_views` too).
 
-use ori_bake::{BakeError, BakeParams};
+use ori_bake::{BakeError, BakeParams, Baker};
 use ori_eval::{EvalError, EvalParams, Evaluator, Mask};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
@@ -224,7 +224,9 @@ fn place_scored(
     // The table's views, then the corners of the triangles their entries serve.
     let mut measured = table;
     measured.extend(ori_views::evaluation_corners());
-    let planned = ori_bake::bake(mesh, &plan.directions, measure.bake)?;
+    // One baker for every candidate baked, so that textures are decoded once.
+    let baker = Baker::new(mesh);
+    let planned = baker.bake(&plan.directions, measure.bake)?;
     let evaluator = Evaluator::new(mesh, &planned, measure.eval)?.part_of(measure.whole);
     let views: Vec<OrthoView> = measured
         .iter()
@@ -239,6 +241,7 @@ fn place_scored(
     baked.resize(candidates.len(), None);
     let mut search = Search {
         mesh,
+        baker,
         measure,
         candidates: &candidates,
         measured: &measured,
@@ -346,6 +349,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// The measured state of a search: candidate maps and the masks computed so far.
 struct Search<'a> {
     mesh: &'a Mesh,
+    baker: Baker<'a>,
     measure: &'a Measure<'a>,
     /// The planned directions, then the evaluation directions.
     candidates: &'a [[f64; 3]],
@@ -413,7 +417,7 @@ impl Search<'_> {
             .collect();
         let directions: Vec<[f64; 3]> = unbaked.iter().map(|&c| self.candidates[c]).collect();
         if !directions.is_empty() {
-            let maps = ori_bake::bake(self.mesh, &directions, self.measure.bake)?.maps;
+            let maps = self.baker.bake(&directions, self.measure.bake)?.maps;
             for (c, map) in unbaked.into_iter().zip(maps) {
                 self.baked[c] = Some(map);
             }
