@@ -115,8 +115,8 @@ pub use render::{Layer, NO_SOURCE, Render};
 /// The full render of any mesh (the baker's) through `view` (what
 /// [`Evaluator::render_mesh`] draws for a whole model), for drawing another mesh, such as a
 /// simplified one, in the evaluation view of the original.
-pub fn render_mesh(mesh: &ori_bake::Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
-    reference::render(mesh, view)
+pub fn render_mesh(baker: &ori_bake::Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
+    reference::render(baker, view)
 }
 
 /// Which fragment wins where several impostors draw the same pixel (ORI paper, 3.3).

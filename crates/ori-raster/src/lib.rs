@@ -248,6 +248,11 @@ pub fn rasterize_scales(
         scales.iter().all(|s| s.is_power_of_two()),
         "scales must be powers of two"
     );
+    let stride = scales.len();
+    assert!(stride <= 32, "at most 32 scales");
+    if stride == 0 {
+        return Vec::new();
+    }
     let mut outs: Vec<Raster> = scales
         .iter()
         .map(|&s| {
@@ -270,11 +275,6 @@ pub fn rasterize_scales(
     // columns (and rows) it lies in. Most triangles of a dense scan cover no pixel centre, and
     // comparing three keys rejects them. Dividing by a power of two is exact, so the keys
     // are those of the scaled coordinates `draw` sees.
-    let stride = scales.len();
-    assert!(stride <= 32, "at most 32 scales");
-    if stride == 0 {
-        return outs;
-    }
     let mut keys = vec![[0u32; 2]; positions.len() * stride];
     for (p, corner) in projected.iter().zip(keys.chunks_exact_mut(stride)) {
         for ((key, out), &scale) in corner.iter_mut().zip(&outs).zip(scales) {

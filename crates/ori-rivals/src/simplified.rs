@@ -2,7 +2,7 @@
 //! edge-collapse simplifier until its vertex and index buffers fit the budget, drawn with its
 //! own attributes (the evaluator's reference render of the simplified mesh).
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use ori_bake::{Baker, Textures};
 use ori_mesh::Mesh;
@@ -13,8 +13,9 @@ use crate::{Drawn, Primitive, Rival, RivalError, Technique};
 /// A mesh within a byte budget.
 pub struct SimplifiedMesh {
     mesh: Mesh,
-    /// Its textures, decoded once for every view drawn.
-    textures: Arc<Textures>,
+    /// Its textures, decoded at the first view drawn, for every view (none is drawn when
+    /// the whole mesh fits: the measure draws the reference instead).
+    textures: OnceLock<Arc<Textures>>,
     /// Triangles of the original.
     original: usize,
 }
@@ -104,7 +105,7 @@ impl SimplifiedMesh {
         if mesh_bytes(per_vertex, mesh.positions.len(), original) <= budget {
             return Ok(SimplifiedMesh {
                 mesh: mesh.clone(),
-                textures: Arc::new(Textures::new(mesh)),
+                textures: OnceLock::new(),
                 original,
             });
         }
@@ -133,8 +134,8 @@ impl SimplifiedMesh {
             closest: mesh_bytes(per_vertex, 3, 1),
         })?;
         Ok(SimplifiedMesh {
-            textures: Arc::new(Textures::new(&mesh)),
             mesh,
+            textures: OnceLock::new(),
             original,
         })
     }
@@ -218,11 +219,12 @@ impl Rival for SimplifiedMesh {
     }
 
     fn draw(&self, view: &OrthoView) -> Result<Drawn, RivalError> {
+        let textures = self
+            .textures
+            .get_or_init(|| Arc::new(Textures::new(&self.mesh)))
+            .clone();
         Ok(Drawn {
-            render: ori_eval::render_mesh(
-                &Baker::with_textures(&self.mesh, self.textures.clone()),
-                view,
-            )?,
+            render: ori_eval::render_mesh(&Baker::with_textures(&self.mesh, textures), view)?,
             count: self.mesh.triangles.len() as u32,
         })
     }
