@@ -142,23 +142,33 @@ fn coverage_with(
         if (0..2).any(|k| covers_no_centre([ka[k], kb[k], kc[k]])) {
             continue;
         }
-        // With plain keys the candidate centres are columns min + 1 ..= max (likewise rows):
-        // nothing to do when they are all covered already, the common case on dense scans.
+        // Culled and degenerate triangles first: on a closed scan about half the triangles
+        // face away, and this is cheaper than the covered-box test below.
+        let [a, b, c] = tri.map(|i| exact[i as usize]);
+        let area = edge(a, b, c);
+        if area == 0.0 || !area.is_finite() || (mesh.single_sided[t] && faces_away(area)) {
+            continue;
+        }
+        // With plain keys the candidate centres are columns min + 1 ..= max (likewise rows),
+        // the box `draw` would compute: nothing to do when they are all covered already, the
+        // common case on dense scans.
         let range = |k: usize| {
             let (p, q, r) = (ka[k], kb[k], kc[k]);
             (p < BEFORE_THE_FIRST && q < BEFORE_THE_FIRST && r < BEFORE_THE_FIRST)
-                .then(|| (p.min(q).min(r) + 1, p.max(q).max(r)))
+                .then(|| (p.min(q).min(r) as usize + 1, p.max(q).max(r) as usize))
         };
-        if let (Some((x0, x1)), Some((y0, y1))) = (range(0), range(1))
-            && all_covered(&mask, n, x0 as usize, x1 as usize, y0 as usize, y1 as usize)
-        {
-            continue;
-        }
-        let [a, b, c] = tri.map(|i| exact[i as usize]);
-        let culled = mesh.single_sided[t];
+        let known = match (range(0), range(1)) {
+            (Some((x0, x1)), Some((y0, y1))) => {
+                if all_covered(&mask, n, x0, x1, y0, y1) {
+                    continue;
+                }
+                Some([x0, x1, y0, y1])
+            }
+            _ => None,
+        };
         let t = mesh.original[t] as usize;
         let masked = alpha.filter(|al| al.masked[t]);
-        draw(&mut mask, t, [a, b, c], masked, culled);
+        draw(&mut mask, t, [a, b, c], area, known, masked);
     }
     mask
 }
@@ -180,38 +190,40 @@ fn edge(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> f64 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
-/// `ori_raster`'s exact inside test of one triangle, setting the covered pixels.
+/// `ori_raster`'s exact inside test of one triangle, setting the covered pixels; `area` is
+/// `edge(a, b, c)`, non-zero and finite, of a triangle not culled. `known`: its box of pixel
+/// centres `[x0, x1, y0, y1]`, when the caller has found it and that it is not all covered.
 fn draw(
     mask: &mut Mask,
     t: usize,
     [a, b, c]: [[f64; 2]; 3],
+    area: f64,
+    known: Option<[usize; 4]>,
     alpha: Option<&AlphaCut<'_>>,
-    single_sided: bool,
 ) {
     let n = mask.size() as usize;
-    let max = n as f64;
-    let min_x = a[0].min(b[0]).min(c[0]);
-    let max_x = a[0].max(b[0]).max(c[0]);
-    let min_y = a[1].min(b[1]).min(c[1]);
-    let max_y = a[1].max(b[1]).max(c[1]);
-    if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
-        return;
-    }
-    let x0 = ceil_nonneg(min_x - 0.5);
-    let x1 = ((max_x - 0.5) as usize).min(n - 1);
-    let y0 = ceil_nonneg(min_y - 0.5);
-    let y1 = ((max_y - 0.5) as usize).min(n - 1);
-    if x0 > x1 || y0 > y1 {
-        return;
-    }
-    // Nothing to add where every pixel of the box is covered already.
-    if all_covered(mask, n, x0, x1, y0, y1) {
-        return;
-    }
-    let area = edge(a, b, c);
-    if area == 0.0 || !area.is_finite() || (single_sided && faces_away(area)) {
-        return;
-    }
+    let [x0, x1, y0, y1] = match known {
+        Some(found) => found,
+        None => {
+            let max = n as f64;
+            let min_x = a[0].min(b[0]).min(c[0]);
+            let max_x = a[0].max(b[0]).max(c[0]);
+            let min_y = a[1].min(b[1]).min(c[1]);
+            let max_y = a[1].max(b[1]).max(c[1]);
+            if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
+                return;
+            }
+            let x0 = ceil_nonneg(min_x - 0.5);
+            let x1 = ((max_x - 0.5) as usize).min(n - 1);
+            let y0 = ceil_nonneg(min_y - 0.5);
+            let y1 = ((max_y - 0.5) as usize).min(n - 1);
+            // Nothing to add where every pixel of the box is covered already.
+            if x0 > x1 || y0 > y1 || all_covered(mask, n, x0, x1, y0, y1) {
+                return;
+            }
+            [x0, x1, y0, y1]
+        }
+    };
     let (p1, p2, swapped) = if area > 0.0 {
         (b, c, false)
     } else {
