@@ -210,15 +210,39 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
             return b.subset;
         }
     }
-    // No subset reaches the goals: the least error over all views, the smaller on ties.
-    (1..=all)
-        .map(|subset| {
-            let mut m = Measure::new(ids, subset);
-            (0..views).for_each(|view| m.add(masks.missed(view, subset)));
-            (m.worst, m.total, subset.count_ones(), m.sorted, subset)
-        })
-        .min()
-        .map_or(0, |m| m.4)
+    // No subset reaches the goals: the least error over all views, the smaller on ties, then
+    // the lower indices. A union only grows, so in every view no subset misses fewer pixels
+    // than all the candidates together: the least (worst, total) error is theirs, and a
+    // subset has it exactly when it misses as few as they do in every view. So the smallest
+    // such subset wins (all of them when no smaller one does), and a subset is dropped at
+    // the first view where it misses more: a lazy source traces the masks of later views
+    // only for the subsets still in the running, which on models whose goals are out of
+    // reach is most of the search.
+    let mut least: Vec<Option<u32>> = vec![None; views];
+    for size in 1..k as u32 {
+        let mut best: Option<(Vec<usize>, u32)> = None;
+        for subset in (1..=all).filter(|s| s.count_ones() == size) {
+            let mut ties = true;
+            for (view, least) in least.iter_mut().enumerate() {
+                let floor = *least.get_or_insert_with(|| masks.missed(view, all));
+                if masks.missed(view, subset) != floor {
+                    ties = false;
+                    break;
+                }
+            }
+            if ties {
+                let mut sorted = indices_of(ids, subset);
+                sorted.sort_unstable();
+                if best.as_ref().is_none_or(|b| sorted < b.0) {
+                    best = Some((sorted, subset));
+                }
+            }
+        }
+        if let Some((_, subset)) = best {
+            return subset;
+        }
+    }
+    all
 }
 
 /// Masks given in full ([`choose_region`]).
