@@ -6,7 +6,7 @@
 
 use ori_mesh::Mesh;
 use ori_raster::{
-    BEFORE_THE_FIRST, OrthoView, ceil_nonneg, centre_gap, covers_no_centre, faces_away, row_span,
+    BEFORE_THE_FIRST, OrthoView, centre_box, centre_gap, covers_no_centre, faces_away, row_span,
 };
 
 use crate::Mask;
@@ -204,25 +204,11 @@ fn draw(
     let n = mask.size() as usize;
     let [x0, x1, y0, y1] = match known {
         Some(found) => found,
-        None => {
-            let max = n as f64;
-            let min_x = a[0].min(b[0]).min(c[0]);
-            let max_x = a[0].max(b[0]).max(c[0]);
-            let min_y = a[1].min(b[1]).min(c[1]);
-            let max_y = a[1].max(b[1]).max(c[1]);
-            if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
-                return;
-            }
-            let x0 = ceil_nonneg(min_x - 0.5);
-            let x1 = ((max_x - 0.5) as usize).min(n - 1);
-            let y0 = ceil_nonneg(min_y - 0.5);
-            let y1 = ((max_y - 0.5) as usize).min(n - 1);
-            // Nothing to add where every pixel of the box is covered already.
-            if x0 > x1 || y0 > y1 || all_covered(mask, n, x0, x1, y0, y1) {
-                return;
-            }
-            [x0, x1, y0, y1]
-        }
+        // Nothing to add where every pixel of the box is covered already.
+        None => match centre_box([a, b, c], n) {
+            Some([x0, x1, y0, y1]) if !all_covered(mask, n, x0, x1, y0, y1) => [x0, x1, y0, y1],
+            _ => return,
+        },
     };
     let (p1, p2, swapped) = if area > 0.0 {
         (b, c, false)

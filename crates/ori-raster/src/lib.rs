@@ -327,24 +327,9 @@ fn draw(
     single_sided: bool,
 ) {
     let n = out.size as usize;
-    let max = n as f64;
-    // Bounding box of pixel centres (i + 0.5) inside the triangle's extent.
-    let min_x = a[0].min(b[0]).min(c[0]);
-    let max_x = a[0].max(b[0]).max(c[0]);
-    let min_y = a[1].min(b[1]).min(c[1]);
-    let max_y = a[1].max(b[1]).max(c[1]);
-    if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
-        return; // off-image, or non-finite
-    }
-    // First and last pixel whose centre is inside the box (the values are >= 0 here, so
-    // truncation is floor; `floor`/`ceil` are library calls on baseline x86-64).
-    let x0 = ceil_nonneg(min_x - 0.5);
-    let x1 = ((max_x - 0.5) as usize).min(n - 1);
-    let y0 = ceil_nonneg(min_y - 0.5);
-    let y1 = ((max_y - 0.5) as usize).min(n - 1);
-    if x0 > x1 || y0 > y1 {
-        return; // covers no pixel centre
-    }
+    let Some([x0, x1, y0, y1]) = centre_box([a, b, c].map(|p| [p[0], p[1]]), n) else {
+        return;
+    };
     let area = edge(a, b, c);
     if area == 0.0 || !area.is_finite() {
         return; // degenerate in this view
@@ -494,9 +479,32 @@ pub fn covers_no_centre([a, b, c]: [u32; 3]) -> bool {
     a == b && b == c && a != ON_A_CENTRE
 }
 
+/// The pixels `[x0, x1, y0, y1]` (inclusive) of an `n` x `n` image whose centres `i + 0.5`
+/// lie in the bounding box of screen points `corners`; `None` when there are none (off the
+/// image, or not finite).
+#[inline]
+pub fn centre_box(corners: [[f64; 2]; 3], n: usize) -> Option<[usize; 4]> {
+    let [a, b, c] = corners;
+    let max = n as f64;
+    let min_x = a[0].min(b[0]).min(c[0]);
+    let max_x = a[0].max(b[0]).max(c[0]);
+    let min_y = a[1].min(b[1]).min(c[1]);
+    let max_y = a[1].max(b[1]).max(c[1]);
+    if !(max_x >= 0.5 && max_y >= 0.5 && min_x <= max - 0.5 && min_y <= max - 0.5) {
+        return None;
+    }
+    // The values are >= 0 here, so truncation is floor (`floor`/`ceil` are library calls on
+    // baseline x86-64).
+    let x0 = ceil_nonneg(min_x - 0.5);
+    let x1 = ((max_x - 0.5) as usize).min(n - 1);
+    let y0 = ceil_nonneg(min_y - 0.5);
+    let y1 = ((max_y - 0.5) as usize).min(n - 1);
+    (x0 <= x1 && y0 <= y1).then_some([x0, x1, y0, y1])
+}
+
 /// `ceil(v)` for the pixel range, 0 for negative `v`.
 #[inline]
-pub fn ceil_nonneg(v: f64) -> usize {
+fn ceil_nonneg(v: f64) -> usize {
     if v <= 0.0 {
         return 0;
     }
