@@ -157,15 +157,12 @@ fn coverage_with(
             (p < BEFORE_THE_FIRST && q < BEFORE_THE_FIRST && r < BEFORE_THE_FIRST)
                 .then(|| (p.min(q).min(r) as usize + 1, p.max(q).max(r) as usize))
         };
-        let known = match (range(0), range(1)) {
-            (Some((x0, x1)), Some((y0, y1))) => {
-                if all_covered(&mask, n, x0, x1, y0, y1) {
-                    continue;
-                }
-                Some([x0, x1, y0, y1])
-            }
-            _ => None,
-        };
+        let known = range(0)
+            .zip(range(1))
+            .map(|((x0, x1), (y0, y1))| [x0, x1, y0, y1]);
+        if known.is_some_and(|[x0, x1, y0, y1]| all_covered(&mask, n, x0, x1, y0, y1)) {
+            continue;
+        }
         let t = mesh.original[t] as usize;
         let masked = alpha.filter(|al| al.masked[t]);
         draw(&mut mask, t, [a, b, c], area, known, masked);

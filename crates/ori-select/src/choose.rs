@@ -219,26 +219,18 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
     // only for the subsets still in the running, which on models whose goals are out of
     // reach is most of the search.
     let mut least: Vec<Option<u32>> = vec![None; views];
+    let mut ties = |subset: u32| {
+        (0..views).all(|view| {
+            let floor = *least[view].get_or_insert_with(|| masks.missed(view, all));
+            masks.missed(view, subset) == floor
+        })
+    };
     for size in 1..k as u32 {
-        let mut best: Option<(Vec<usize>, u32)> = None;
-        for subset in (1..=all).filter(|s| s.count_ones() == size) {
-            let mut ties = true;
-            for (view, least) in least.iter_mut().enumerate() {
-                let floor = *least.get_or_insert_with(|| masks.missed(view, all));
-                if masks.missed(view, subset) != floor {
-                    ties = false;
-                    break;
-                }
-            }
-            if ties {
-                let mut sorted = indices_of(ids, subset);
-                sorted.sort_unstable();
-                if best.as_ref().is_none_or(|b| sorted < b.0) {
-                    best = Some((sorted, subset));
-                }
-            }
-        }
-        if let Some((_, subset)) = best {
+        let tied = (1..=all)
+            .filter(|s| s.count_ones() == size)
+            .filter(|&s| ties(s))
+            .min_by_key(|&s| Measure::new(ids, s).sorted);
+        if let Some(subset) = tied {
             return subset;
         }
     }
