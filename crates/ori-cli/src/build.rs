@@ -65,6 +65,11 @@ pub struct BuildArgs {
     /// docs/EVENTS.md); what a person reads goes to standard error.
     #[arg(long, value_enum, default_value = "human")]
     pub message_format: MessageFormat,
+    /// Run the jobs that read no source file on this REAPI build farm (grpc://host:port;
+    /// default: `[execution] remote`); a farm that goes away costs one warning and the rest
+    /// builds here.
+    #[arg(long, value_name = "URL")]
+    pub remote_exec: Option<String>,
 }
 
 /// `--message-format`.
@@ -139,6 +144,7 @@ pub fn assemble(a: AssembleArgs) -> ExitCode {
             shard: None,
             backend: a.backend,
             message_format: a.message_format,
+            remote_exec: None,
         },
         true,
     )
@@ -332,6 +338,7 @@ fn run_build(
         dry_run: args.dry_run,
         dump_maps: args.dump_maps,
         explode: args.explode,
+        remote_exec: args.remote_exec,
     };
     let progress = Progress::new(progress, args.explain || args.dry_run);
     let observer: &dyn ori_graph::Observer = match events {

@@ -26,6 +26,9 @@ enum Event<'a> {
         asset: &'a str,
         outcome: &'static str,
         seconds: f64,
+        /// Only for a job that ran on the remote-execution farm.
+        #[serde(skip_serializing_if = "std::ops::Not::not")]
+        remote: bool,
         #[serde(skip_serializing_if = "Option::is_none")]
         reason: Option<String>,
         #[serde(skip_serializing_if = "Option::is_none")]
@@ -188,6 +191,7 @@ impl Observer for JsonEvents {
             asset: &job.asset,
             outcome,
             seconds: result.duration.as_secs_f64(),
+            remote: result.ran_remotely,
             reason,
             error,
         });
@@ -208,6 +212,7 @@ impl Observer for JsonEvents {
                 asset,
                 outcome: "reused",
                 seconds: 0.0,
+                remote: false,
                 reason: None,
                 error: None,
             });

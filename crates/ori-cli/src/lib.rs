@@ -2,6 +2,7 @@
 //! (which adds the benchmarks and repository chores). Each command is a thin layer over a
 //! library crate, so everything it does is also testable and usable from code.
 
+pub mod action;
 pub mod build;
 pub mod compare;
 pub mod compress;
@@ -10,6 +11,7 @@ mod events;
 pub mod init;
 pub mod preview;
 mod progress;
+pub mod worker;
 
 use std::process::ExitCode;
 
@@ -40,6 +42,11 @@ pub enum Command {
     Compare(compare::Args),
     /// Write a commented pipeline.toml (every key with its default) into the current folder.
     Init(init::Args),
+    /// Run a BuildGrid farm's actions on this machine (a bot of its Bots service).
+    ReapiWorker(worker::Args),
+    /// Run one job from a folder with its description and inputs (a remote worker's command).
+    #[command(hide = true)]
+    RunAction(action::Args),
 }
 
 impl Command {
@@ -54,6 +61,8 @@ impl Command {
             Command::EvalTable(args) => eval_table::run(args),
             Command::Compare(args) => compare::run(args),
             Command::Init(args) => init::run(args),
+            Command::RunAction(args) => action::run(args),
+            Command::ReapiWorker(args) => worker::run(args),
         }
     }
 }

@@ -155,11 +155,13 @@ impl Observer for Progress {
         let line = match &result.outcome {
             Outcome::Reused if lines => Some(format!("{what}: reused")),
             Outcome::Ran(reason) if self.explain => Some(format!(
-                "{what}: ran in {:.2} s because {reason}",
+                "{what}: ran{} in {:.2} s because {reason}",
+                where_ran(result),
                 result.duration.as_secs_f64()
             )),
             Outcome::Ran(_) if lines => Some(format!(
-                "{what}: ran in {:.2} s",
+                "{what}: ran{} in {:.2} s",
+                where_ran(result),
                 result.duration.as_secs_f64()
             )),
             Outcome::WouldRun(reason) => Some(format!("{what}: would run because {reason}")),
@@ -190,4 +192,9 @@ impl Observer for Progress {
             }
         }
     }
+}
+
+/// Where a job that ran did (nothing when here).
+fn where_ran(result: &JobResult) -> &'static str {
+    if result.ran_remotely { " remotely" } else { "" }
 }

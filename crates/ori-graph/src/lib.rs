@@ -9,7 +9,9 @@
 //! tiers ([`ResultStore`]): the local [`Cache`] and an optional [`RemoteCache`] (filled by
 //! builders in read-write mode), which a run reads and writes through [`Tiered`].
 
+mod action;
 mod cache;
+mod execute;
 mod hash;
 mod job;
 mod memo;
@@ -21,9 +23,13 @@ mod stage;
 mod store;
 mod tiered;
 
+pub use action::{
+    ActionJob, ActionLeft, ActionOutputs, INPUTS_DIR, JOB_FILE, LEFT_FILE, OUTPUTS_DIR, run_action,
+};
 pub use cache::{
     ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, STAT_MEMO, write_atomic,
 };
+pub use execute::{ExecuteError, Executor, RemoteExecution};
 pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec};
 pub use memo::{MEMO_SHARDS, MemoKey, MemoMap};

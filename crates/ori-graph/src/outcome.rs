@@ -74,6 +74,8 @@ pub struct JobResult {
     pub discovered: Vec<DiscoveredFile>,
     /// Time spent running the stage (zero when reused).
     pub duration: Duration,
+    /// Whether it ran on the remote executor.
+    pub ran_remotely: bool,
 }
 
 impl JobResult {
@@ -84,6 +86,7 @@ impl JobResult {
             warnings: Vec::new(),
             discovered: Vec::new(),
             duration: Duration::ZERO,
+            ran_remotely: false,
         }
     }
 }

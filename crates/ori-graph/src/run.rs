@@ -2,19 +2,20 @@
 
 use std::collections::{BTreeMap, HashSet};
 use std::io;
-use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
+use crate::action::ActionJob;
 use crate::cache::{ActionEntry, Cache, JobRecord, ReadError};
+use crate::execute::RemoteExecution;
 use crate::hash::{ContentHash, canonical_json, job_key};
 use crate::job::{Graph, Input, JobId, JobSpec};
 use crate::outcome::{JobResult, Observer, Outcome, RunReason};
 use crate::remote::RemoteCache;
 use crate::sources::{SourceHasher, SourceRules};
-use crate::stage::{JobContext, JobInputs, StageError};
+use crate::stage::{JobContext, JobInputs, StageError, run_catching};
 use crate::store::Lookup;
 use crate::tiered::Tiered;
 
@@ -36,6 +37,10 @@ pub struct RunOptions {
     /// for (its stat memo loaded once; its own rules apply). `None`: the run loads the stat
     /// memo itself, with the rules above.
     pub shared_sources: Option<Arc<SourceHasher>>,
+    /// Where jobs that are actions run instead of here (remote execution); shared by the runs
+    /// of one build, so an executor that goes away is reported once. The run keeps up to its
+    /// `max_in_flight` jobs waiting on it, beside `threads`.
+    pub execution: Option<Arc<RemoteExecution>>,
 }
 
 /// The most worker threads a run starts, whatever it is asked for.
@@ -46,6 +51,8 @@ pub const MAX_THREADS: usize = 256;
 pub struct StageSummary {
     pub stage: &'static str,
     pub ran: usize,
+    /// Of those that ran, the ones that ran on the remote executor.
+    pub remote: usize,
     pub reused: usize,
     pub would_run: usize,
     pub failed: usize,
@@ -99,6 +106,7 @@ pub fn run<'g>(
         dry_run: options.dry_run,
         cached_only: options.cached_only,
         fetch_lazily: options.remote.as_ref().map(|_| outputs_read_later(graph)),
+        execution: options.execution.clone(),
         observer,
     };
     observer.run_started(graph);
@@ -108,8 +116,18 @@ pub fn run<'g>(
     {
         observer.note(&warning);
     }
+    let threads = match &options.execution {
+        Some(remote) => {
+            let here = match options.threads {
+                0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+                n => n,
+            };
+            here.max(remote.max_in_flight())
+        }
+        None => options.threads,
+    };
     let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(options.threads.min(MAX_THREADS))
+        .num_threads(threads.min(MAX_THREADS))
         .build()
         .expect("cannot start worker threads");
     pool.scope(|scope| {
@@ -180,7 +198,10 @@ impl<'g> Build<'g> {
             s.time += r.duration;
             match r.outcome {
                 Outcome::Reused => s.reused += 1,
-                Outcome::Ran(_) => s.ran += 1,
+                Outcome::Ran(_) => {
+                    s.ran += 1;
+                    s.remote += usize::from(r.ran_remotely);
+                }
                 Outcome::WouldRun(_) => s.would_run += 1,
                 Outcome::Failed(_) | Outcome::NotCached => s.failed += 1,
                 Outcome::Skipped => s.skipped += 1,
@@ -201,6 +222,7 @@ struct Exec<'g> {
     /// does not fetch them; the job that reads one fetches it (or, failing that, makes it
     /// again) when it runs, so a hit whose dependents are hits too moves no bytes.
     fetch_lazily: Option<Vec<HashSet<String>>>,
+    execution: Option<Arc<RemoteExecution>>,
     observer: &'g dyn Observer,
 }
 
@@ -334,6 +356,7 @@ impl<'g> Exec<'g> {
                         warnings: entry.warnings,
                         discovered: entry.discovered,
                         duration: Duration::ZERO,
+                        ran_remotely: false,
                     };
                 }
                 Err(reason) => reason,
@@ -346,6 +369,7 @@ impl<'g> Exec<'g> {
                         warnings: entry.warnings,
                         discovered: entry.discovered,
                         duration: Duration::ZERO,
+                        ran_remotely: false,
                     };
                 }
                 None => self.explain_miss(job, &key, &inputs),
@@ -360,8 +384,8 @@ impl<'g> Exec<'g> {
         }
         self.observer.job_started(job);
         let start = Instant::now();
-        let entry = match self.run_stage(id, &inputs) {
-            Ok(entry) => entry,
+        let (entry, ran_remotely) = match self.run_stage(id, &inputs) {
+            Ok(ran) => ran,
             Err(e) => {
                 let message = e.in_job(&job.asset, source_paths(job));
                 let mut result = JobResult::without_outputs(Outcome::Failed(message));
@@ -389,6 +413,7 @@ impl<'g> Exec<'g> {
             warnings: entry.warnings,
             discovered: entry.discovered,
             duration: start.elapsed(),
+            ran_remotely,
         }
     }
 
@@ -511,55 +536,61 @@ impl<'g> Exec<'g> {
         RunReason::Inputs(changed)
     }
 
-    /// Run a job's stage and store its outputs; panics in a stage become failures.
+    /// Run a job's stage, on the remote executor when there is one and the job is an action,
+    /// else here, and store its outputs; panics in a stage become failures. Also says whether
+    /// it ran remotely.
     fn run_stage(
         &self,
         id: JobId,
         inputs: &[(String, ContentHash)],
-    ) -> Result<ActionEntry, StageError> {
+    ) -> Result<(ActionEntry, bool), StageError> {
         let job = self.graph.job(id);
         let reader = JobReader {
             exec: self,
             job,
             inputs,
         };
-        let mut ctx = JobContext::new(
-            &job.asset,
-            &job.params,
-            &reader,
-            source_dir(job).map(Path::to_path_buf),
-        );
-        let ran = catch_unwind(AssertUnwindSafe(|| job.stage.run(&mut ctx)));
-        let left = ctx.finish();
-        match ran {
-            Ok(Ok(())) => {}
-            Ok(Err(e)) => return Err(e),
-            Err(panic) => {
-                let what = panic
-                    .downcast_ref::<&str>()
-                    .map(|s| s.to_string())
-                    .or_else(|| panic.downcast_ref::<String>().cloned())
-                    .unwrap_or_default();
-                return Err(StageError::Panic {
-                    stage: job.stage.name(),
-                    what,
-                });
+        let remote = self.execution.as_ref().and_then(|remote| {
+            let action = ActionJob::of(job, inputs)?;
+            let read = |hash: &ContentHash| {
+                let (name, _) = inputs.iter().find(|(_, h)| h == hash).ok_or_else(|| {
+                    StageError::Plan(format!("no input has the hash {}", hash.short()))
+                })?;
+                reader.input(name)
+            };
+            remote.try_execute(&action, &read, self.observer)
+        });
+        let ran_remotely = remote.is_some();
+        let (made, discovered, warnings) = match remote {
+            Some(done) => (done.outputs, Vec::new(), done.left.warnings),
+            None => {
+                let mut ctx = JobContext::new(
+                    &job.asset,
+                    &job.params,
+                    &reader,
+                    source_dir(job).map(Path::to_path_buf),
+                );
+                let ran = run_catching(job.stage.as_ref(), &mut ctx);
+                let left = ctx.finish();
+                ran?;
+                (left.outputs, left.discovered, left.warnings)
             }
-        }
+        };
         let mut outputs = BTreeMap::new();
-        for (name, bytes) in left.outputs {
+        for (name, bytes) in made {
             let blob = self.store.put_output(&bytes).map_err(|e| {
                 StageError::file(self.store.local().root(), format!("cannot write: {e}"))
             })?;
             outputs.insert(name, blob);
         }
-        Ok(ActionEntry {
+        let entry = ActionEntry {
             stage: job.stage.name().to_string(),
             outputs,
-            discovered: left.discovered,
-            warnings: left.warnings,
+            discovered,
+            warnings,
             remote_names: BTreeMap::new(),
-        })
+        };
+        Ok((entry, ran_remotely))
     }
 
     fn read_output(&self, id: JobId, name: &str) -> Result<Vec<u8>, StageError> {
@@ -598,7 +629,7 @@ impl<'g> Exec<'g> {
         let inputs = self.input_hashes(id).map_err(|outcome| {
             StageError::input(name, format!("cannot regenerate: {outcome:?}"))
         })?;
-        let entry = self.run_stage(id, &inputs)?;
+        let (entry, _) = self.run_stage(id, &inputs)?;
         if entry.outputs != result.outputs {
             return Err(StageError::input(
                 name,

@@ -3,6 +3,7 @@
 use std::collections::BTreeMap;
 use std::fmt;
 use std::io;
+use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
 use crate::cache::DiscoveredFile;
@@ -96,6 +97,24 @@ impl fmt::Display for StageError {
 }
 
 impl std::error::Error for StageError {}
+
+/// Run `stage` in `ctx`; a panic in the stage becomes [`StageError::Panic`].
+pub(crate) fn run_catching(stage: &dyn Stage, ctx: &mut JobContext<'_>) -> Result<(), StageError> {
+    match catch_unwind(AssertUnwindSafe(|| stage.run(ctx))) {
+        Ok(ran) => ran,
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(StageError::Panic {
+                stage: stage.name(),
+                what,
+            })
+        }
+    }
+}
 
 /// Where a running job's inputs come from (the scheduler): reads verified against the hashes
 /// its key was computed from, and reads of discovered files under the run's source rules.

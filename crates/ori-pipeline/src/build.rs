@@ -19,7 +19,7 @@ use crate::report::{Reading, collect};
 use crate::runs::Runs;
 use crate::shard::{self, Shard};
 use crate::stages::Registry;
-use crate::summary::{BuildSummary, RemoteSummary, StageLine, WrittenRelease};
+use crate::summary::{BuildSummary, ExecutionSummary, RemoteSummary, StageLine, WrittenRelease};
 use crate::unchanged::{AssetMemo, Looked, Unchanged};
 use crate::{PipelineError, outputs, release, search};
 
@@ -58,6 +58,8 @@ pub struct BuildOptions {
     /// Measure selection with the wgpu renderer on this adapter (`--backend gpu`; the
     /// adapter's summary, from `gpu_select::renderer`), instead of the CPU evaluator.
     pub gpu_select: Option<String>,
+    /// Run the jobs on this REAPI farm (`grpc://host:port`) instead of `[execution] remote`.
+    pub remote_exec: Option<String>,
 }
 
 /// The configuration read and the assets found: what every mode starts from.
@@ -102,6 +104,22 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
         })?)),
         None => None,
     };
+    // Remote execution runs jobs; a dry run and `assemble` run none.
+    let farm = options
+        .remote_exec
+        .as_ref()
+        .or(config.execution.remote.as_ref());
+    let execution = match farm {
+        Some(url) if !options.dry_run && options.mode != Mode::Assemble => {
+            Some(Arc::new(config.execution.open(url).map_err(|message| {
+                PipelineError::Config {
+                    path: options.config.clone(),
+                    message,
+                }
+            })?))
+        }
+        _ => None,
+    };
     let mut params = Vec::with_capacity(assets.len());
     for a in &assets {
         params.push(StageParams {
@@ -120,6 +138,7 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
         cached_only: options.mode == Mode::Assemble,
         sources: config.limits.source_rules(&root)?,
         shared_sources: None,
+        execution,
     };
     Ok(Setup {
         out_dir,
@@ -382,6 +401,7 @@ pub fn build_assets(
             Mode::Release | Mode::Assemble => None,
         },
         remote: remote.as_deref().map(RemoteSummary::of),
+        execution: runs.options.execution.as_deref().map(ExecutionSummary::of),
         missed_gate: report
             .assets
             .iter()

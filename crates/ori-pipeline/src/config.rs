@@ -20,6 +20,7 @@ pub struct Config {
     pub output: OutputConfig,
     pub limits: LimitsConfig,
     pub compare: CompareConfig,
+    pub execution: ExecutionConfig,
     /// Stage parameters before overrides.
     stages: toml::Table,
     overrides: Vec<Override>,
@@ -279,6 +280,114 @@ impl RemoteConfig {
     }
 }
 
+/// `[execution]`: where the jobs run. By default here; with `remote`, every job that reads no
+/// source file runs on a REAPI build farm (BuildGrid, Buildbarn, NativeLink, ...).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExecutionConfig {
+    /// `grpc://host:port` of the farm's REAPI endpoint; none by default.
+    pub remote: Option<String>,
+    /// The REAPI instance name (empty for the server's default instance).
+    pub instance_name: String,
+    /// The environment variable holding a bearer token, if the farm wants one.
+    pub token_env: Option<String>,
+    /// Seconds one job may take there, queue included, before it runs here instead; also the
+    /// limit of every other exchange with the farm.
+    pub timeout_s: f64,
+    /// Jobs waiting on the farm at once.
+    pub max_in_flight: usize,
+}
+
+impl Default for ExecutionConfig {
+    fn default() -> Self {
+        ExecutionConfig {
+            remote: None,
+            instance_name: String::new(),
+            token_env: None,
+            timeout_s: 600.0,
+            max_in_flight: 8,
+        }
+    }
+}
+
+impl ExecutionConfig {
+    fn validate(&self) -> Result<(), String> {
+        if let Some(url) = &self.remote {
+            check_grpc_url(url).map_err(|why| format!("[execution] remote = {url:?}: {why}"))?;
+        }
+        if !(self.timeout_s > 0.0 && self.timeout_s <= 86400.0) {
+            return Err(format!(
+                "[execution] timeout_s = {}: expected more than 0 and at most 86400 seconds",
+                self.timeout_s
+            ));
+        }
+        if !(1..=256).contains(&self.max_in_flight) {
+            return Err(format!(
+                "[execution] max_in_flight = {}: expected 1 to 256",
+                self.max_in_flight
+            ));
+        }
+        if let Some(name) = &self.token_env
+            && (name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
+        {
+            return Err(format!(
+                "[execution] token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
+            ));
+        }
+        Ok(())
+    }
+
+    /// The remote executor this configures, on the farm at `url` (`[execution] remote` or the
+    /// command line's); reads the token.
+    pub fn open(&self, url: &str) -> Result<ori_graph::RemoteExecution, String> {
+        check_grpc_url(url).map_err(|why| format!("remote execution {url:?}: {why}"))?;
+        let token = match &self.token_env {
+            None => None,
+            Some(name) => match std::env::var(name) {
+                Ok(token) if !token.is_empty() => Some(token),
+                _ => {
+                    return Err(format!(
+                        "[execution] token_env = {name:?}: the environment variable {name} is not set"
+                    ));
+                }
+            },
+        };
+        let timeout = std::time::Duration::from_secs_f64(self.timeout_s);
+        let settings = ori_reapi::client::Settings {
+            url: url.to_string(),
+            instance_name: self.instance_name.clone(),
+            token,
+            timeout,
+        };
+        let executor =
+            ori_reapi::executor::ReapiExecutor::new(settings, None, self.max_in_flight, timeout)?;
+        Ok(ori_graph::RemoteExecution::new(Box::new(executor)))
+    }
+}
+
+/// Whether `url` is `grpc://host:port`.
+pub fn check_grpc_url(url: &str) -> Result<(), String> {
+    let Some(rest) = url.strip_prefix("grpc://") else {
+        return Err(if url.starts_with("grpcs://") {
+            "grpcs (TLS) is not supported; terminate TLS in a local proxy".into()
+        } else {
+            "expected grpc://host:port".into()
+        });
+    };
+    let rest = rest.trim_end_matches('/');
+    match rest.rsplit_once(':') {
+        Some((host, port))
+            if !host.is_empty()
+                && port.parse::<u16>().is_ok()
+                && !rest.contains(['/', '@', '?', '#'])
+                && !rest.chars().any(|c| c.is_whitespace() || c.is_control()) =>
+        {
+            Ok(())
+        }
+        _ => Err("expected grpc://host:port".into()),
+    }
+}
+
 /// `[compare]`: the HTML report's comparison of each ORI with the rival techniques at its
 /// texture bytes (`cargo xtask compare`); slow, so off by default.
 #[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
@@ -421,6 +530,8 @@ struct ConfigFile {
     limits: LimitsConfig,
     #[serde(default)]
     compare: CompareConfig,
+    #[serde(default)]
+    execution: ExecutionConfig,
     #[serde(default)]
     overrides: Vec<OverrideFile>,
     #[serde(flatten)]
@@ -649,6 +760,7 @@ impl Config {
         }
         file.limits.validate().map_err(fail)?;
         file.compare.validate().map_err(fail)?;
+        file.execution.validate().map_err(fail)?;
         for pattern in file.assets.include.iter().chain(&file.assets.exclude) {
             glob(pattern).map_err(|e| fail(format!("[assets] pattern {pattern:?}: {e}")))?;
         }
@@ -660,6 +772,7 @@ impl Config {
             output: file.output,
             limits: file.limits,
             compare: file.compare,
+            execution: file.execution,
             stages,
             overrides,
             text: text.to_string(),

@@ -21,6 +21,7 @@
 //! ingest (canonical mesh) -> later stages; no module here reads back a later one's output
 //! except through the graph.
 
+pub mod action;
 pub mod build;
 pub mod config;
 pub mod discover;

@@ -4,7 +4,9 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use ori_graph::{RemoteCache, RemoteDigest, RemoteMode, RemoteStats, SourceHasher};
+use ori_graph::{
+    RemoteCache, RemoteDigest, RemoteExecution, RemoteMode, RemoteStats, SourceHasher,
+};
 use ori_release::{BuildReport, Release};
 use serde::Serialize;
 
@@ -30,6 +32,8 @@ pub struct BuildSummary {
     pub shard: Option<(shard::Shard, usize)>,
     /// What the remote cache did, when one is configured.
     pub remote: Option<RemoteSummary>,
+    /// What the remote-execution farm did, when one is configured.
+    pub execution: Option<ExecutionSummary>,
     /// The assets whose packages miss their `[gate]`, each with what it misses.
     pub missed_gate: Vec<(String, Vec<String>)>,
     /// What the build wrote into its output folder, for a report made right after it
@@ -70,11 +74,36 @@ impl RemoteSummary {
     }
 }
 
+/// The remote-execution farm's part in a build.
+#[derive(Clone, Debug, Serialize)]
+pub struct ExecutionSummary {
+    pub url: String,
+    /// Jobs it ran.
+    pub executed: u64,
+    /// Jobs sent to it that ran here after all.
+    pub fell_back: u64,
+    /// It went away during the build (the rest was built here).
+    pub unavailable: bool,
+}
+
+impl ExecutionSummary {
+    pub(crate) fn of(execution: &RemoteExecution) -> ExecutionSummary {
+        ExecutionSummary {
+            url: execution.describe(),
+            executed: execution.executed(),
+            fell_back: execution.fell_back(),
+            unavailable: execution.is_gone(),
+        }
+    }
+}
+
 /// One stage's line of the summary.
 #[derive(Clone, Debug, Serialize)]
 pub struct StageLine {
     pub stage: String,
     pub ran: usize,
+    /// Of those that ran, the ones that ran on the remote-execution farm.
+    pub remote: usize,
     pub reused: usize,
     pub would_run: usize,
     pub failed: usize,
@@ -87,6 +116,7 @@ impl StageLine {
         StageLine {
             stage: stage.to_string(),
             ran: 0,
+            remote: 0,
             reused: 0,
             would_run: 0,
             failed: 0,
@@ -107,6 +137,7 @@ impl StageLine {
             };
             let l = &mut lines[i];
             l.ran += s.ran;
+            l.remote += s.remote;
             l.reused += s.reused;
             l.would_run += s.would_run;
             l.failed += s.failed;
@@ -134,16 +165,30 @@ impl StageLine {
 /// The summary as the table printed at the end of a build.
 pub fn format_summary(s: &BuildSummary) -> String {
     let mut out = String::new();
+    // The `remote` column only where a farm could have run jobs.
+    let remote = |text: String| {
+        if s.execution.is_some() {
+            text
+        } else {
+            String::new()
+        }
+    };
     out.push_str(&format!(
-        "{:<10} {:>6} {:>7} {:>7} {:>9}\n",
-        "stage", "ran", "reused", "failed", "time (s)"
+        "{:<10} {:>6}{} {:>7} {:>7} {:>9}\n",
+        "stage",
+        "ran",
+        remote(format!(" {:>6}", "remote")),
+        "reused",
+        "failed",
+        "time (s)"
     ));
     for l in &s.stages {
         let ran = if s.dry_run { l.would_run } else { l.ran };
         out.push_str(&format!(
-            "{:<10} {:>6} {:>7} {:>7} {:>9.2}\n",
+            "{:<10} {:>6}{} {:>7} {:>7} {:>9.2}\n",
             l.stage,
             ran,
+            remote(format!(" {:>6}", l.remote)),
             l.reused,
             l.failed + l.skipped,
             l.seconds
@@ -204,6 +249,18 @@ pub fn format_summary(s: &BuildSummary) -> String {
         }
         if r.unavailable {
             out.push_str("; unavailable during the build, the rest was built locally");
+        }
+    }
+    if let Some(e) = &s.execution {
+        out.push_str(&format!(
+            "\nremote execution {}: {} job(s) ran there",
+            e.url, e.executed
+        ));
+        if e.fell_back > 0 {
+            out.push_str(&format!(", {} sent there ran here", e.fell_back));
+        }
+        if e.unavailable {
+            out.push_str("; unavailable during the build, the rest was built here");
         }
     }
     out

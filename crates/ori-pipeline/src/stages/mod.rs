@@ -193,6 +193,11 @@ impl Registry {
             .clone()
     }
 
+    /// The registered stage named `name`.
+    pub fn by_name(&self, name: &str) -> Option<Arc<dyn ori_graph::Stage>> {
+        self.stages.iter().find(|s| s.name() == name).cloned()
+    }
+
     /// Every stage's name, in data-flow order.
     pub fn names(&self) -> impl Iterator<Item = &'static str> + '_ {
         self.stages.iter().map(|s| s.name())

@@ -1,0 +1,129 @@
+//! Running jobs elsewhere: an [`Executor`] takes a job that is an action ([`ActionJob`]) and
+//! gives back its outputs; [`RemoteExecution`] is one shared by the runs of a build, which
+//! stops asking it, with one warning, once it is unavailable, so the build finishes here.
+//! The graph knows no protocol: the executors live in other crates.
+
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::action::{ActionJob, ActionOutputs};
+use crate::hash::ContentHash;
+use crate::outcome::Observer;
+use crate::stage::StageError;
+
+/// Why an executor gave no outputs for a job.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ExecuteError {
+    /// The executor cannot be used (down, refusing us): stop asking it.
+    Unavailable(String),
+    /// This job did not finish there (its stage failed, its worker was lost for good, its
+    /// outputs were wrong): it runs here, which also gives the stage's own error.
+    Failed(String),
+}
+
+/// Where jobs that are actions run instead of in this process.
+pub trait Executor: Send + Sync {
+    /// Where it is, for messages (no credentials).
+    fn describe(&self) -> String;
+    /// How many jobs may wait on it at once.
+    fn max_in_flight(&self) -> usize;
+    /// Run `job`, whose input blobs `read` gives by content hash (checked), and return the
+    /// outputs it made.
+    fn execute(
+        &self,
+        job: &ActionJob,
+        read: &dyn Fn(&ContentHash) -> Result<Vec<u8>, StageError>,
+    ) -> Result<ActionOutputs, ExecuteError>;
+}
+
+/// An executor shared by the runs of a build.
+pub struct RemoteExecution {
+    executor: Box<dyn Executor>,
+    /// Why it stopped being asked, once it did.
+    gone: OnceLock<String>,
+    executed: AtomicU64,
+    fell_back: AtomicU64,
+}
+
+impl std::fmt::Debug for RemoteExecution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RemoteExecution")
+            .field("executor", &self.describe())
+            .field("gone", &self.gone.get())
+            .finish()
+    }
+}
+
+impl RemoteExecution {
+    pub fn new(executor: Box<dyn Executor>) -> RemoteExecution {
+        RemoteExecution {
+            executor,
+            gone: OnceLock::new(),
+            executed: AtomicU64::new(0),
+            fell_back: AtomicU64::new(0),
+        }
+    }
+
+    pub fn describe(&self) -> String {
+        self.executor.describe()
+    }
+
+    pub fn max_in_flight(&self) -> usize {
+        self.executor.max_in_flight().max(1)
+    }
+
+    /// Jobs it ran.
+    pub fn executed(&self) -> u64 {
+        self.executed.load(Ordering::Relaxed)
+    }
+
+    /// Jobs given to it that ran here after all.
+    pub fn fell_back(&self) -> u64 {
+        self.fell_back.load(Ordering::Relaxed)
+    }
+
+    /// Whether it stopped being asked.
+    pub fn is_gone(&self) -> bool {
+        self.gone.get().is_some()
+    }
+
+    /// The outputs of `job` run by the executor, or `None` when it must run here.
+    pub(crate) fn try_execute(
+        &self,
+        job: &ActionJob,
+        read: &dyn Fn(&ContentHash) -> Result<Vec<u8>, StageError>,
+        observer: &dyn Observer,
+    ) -> Option<ActionOutputs> {
+        if self.is_gone() {
+            return None;
+        }
+        let failed = match self.executor.execute(job, read) {
+            Ok(done) => match done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
+                None => {
+                    self.executed.fetch_add(1, Ordering::Relaxed);
+                    return Some(done);
+                }
+                Some(name) => format!("it returned an output named `{name}`"),
+            },
+            Err(ExecuteError::Failed(why)) => why,
+            Err(ExecuteError::Unavailable(why)) => {
+                self.fell_back.fetch_add(1, Ordering::Relaxed);
+                if self.gone.set(why.clone()).is_ok() {
+                    observer.note(&format!(
+                        "warning: remote execution {}: {why}; the remaining jobs run here",
+                        self.describe()
+                    ));
+                }
+                return None;
+            }
+        };
+        self.fell_back.fetch_add(1, Ordering::Relaxed);
+        observer.note(&format!(
+            "warning: {}: job `{}` did not run on {}: {failed}; it runs here",
+            job.asset,
+            job.stage,
+            self.describe()
+        ));
+        None
+    }
+}

@@ -1,0 +1,535 @@
+//! A blocking REAPI client: content-addressable storage (find, batch and ByteStream up and
+//! down, every download checked against its digest), the action cache and `Execute`. Each
+//! call blocks on a small tokio runtime of its own, so the build graph stays synchronous.
+
+use std::future::Future;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use bazel_remote_apis::build::bazel::remote::execution::v2::{
+    ActionResult, BatchReadBlobsRequest, BatchUpdateBlobsRequest, Digest, ExecuteRequest,
+    ExecuteResponse, FindMissingBlobsRequest, GetActionResultRequest, GetCapabilitiesRequest,
+    ServerCapabilities, WaitExecutionRequest, action_cache_client::ActionCacheClient,
+    batch_update_blobs_request, capabilities_client::CapabilitiesClient,
+    content_addressable_storage_client::ContentAddressableStorageClient,
+    execution_client::ExecutionClient,
+};
+use bazel_remote_apis::google::bytestream::{
+    ReadRequest, WriteRequest, byte_stream_client::ByteStreamClient,
+};
+use bazel_remote_apis::google::longrunning::{Operation, operation};
+use prost::Message;
+use sha2::{Digest as _, Sha256};
+use tonic::transport::{Channel, Endpoint};
+use tonic::{Code, Status};
+
+/// The sha256 digest of `bytes`, as the REAPI names blobs.
+pub fn digest_of(bytes: &[u8]) -> Digest {
+    let hash = Sha256::digest(bytes);
+    Digest {
+        hash: hash.iter().map(|b| format!("{b:02x}")).collect(),
+        size_bytes: bytes.len() as i64,
+    }
+}
+
+/// Why a call gave nothing.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Error {
+    /// The server cannot be reached or refuses us (down, overloaded, no permission, too slow).
+    Unavailable(String),
+    /// This request failed (a missing blob, an invalid answer, a failed action).
+    Failed(String),
+}
+
+impl std::fmt::Display for Error {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Error::Unavailable(why) | Error::Failed(why) => f.write_str(why),
+        }
+    }
+}
+
+impl From<Status> for Error {
+    fn from(status: Status) -> Error {
+        let mut what = format!("{:?}: {}", status.code(), status.message());
+        // A transport failure says what failed only in its sources (connection refused, ...).
+        let mut source = std::error::Error::source(&status);
+        while let Some(cause) = source {
+            what.push_str(&format!(": {cause}"));
+            source = cause.source();
+        }
+        match status.code() {
+            Code::Unavailable
+            | Code::Unauthenticated
+            | Code::PermissionDenied
+            | Code::Unimplemented
+            | Code::DeadlineExceeded
+            | Code::Cancelled
+            | Code::Unknown => Error::Unavailable(what),
+            _ => Error::Failed(what),
+        }
+    }
+}
+
+/// Where the server is and how to talk to it.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// `grpc://host:port` (plain HTTP/2).
+    pub url: String,
+    pub instance_name: String,
+    /// Sent as `authorization: Bearer TOKEN` when set.
+    pub token: Option<String>,
+    /// The longest one request may take (an `Execute` waits for its action instead).
+    pub timeout: Duration,
+}
+
+/// A connection to one REAPI server (a cheap handle: calls share the channel).
+pub struct Client {
+    runtime: Option<tokio::runtime::Runtime>,
+    channel: Channel,
+    settings: Settings,
+    /// The server's cap on one batch call, learnt from its capabilities.
+    batch_limit: AtomicU64,
+    uploads: AtomicU64,
+}
+
+/// What batch calls carry at most when the server states no cap (its capabilities say 0).
+const DEFAULT_BATCH_LIMIT: u64 = 4 << 20;
+/// The bytes of one ByteStream write or read message.
+const CHUNK: usize = 1 << 20;
+/// What a batch call's framing and digests take besides the blobs' bytes.
+const BATCH_OVERHEAD: u64 = 64 << 10;
+
+impl Client {
+    pub fn connect(settings: Settings) -> Result<Client, Error> {
+        let address = settings
+            .url
+            .strip_prefix("grpc://")
+            .ok_or_else(|| {
+                Error::Failed(format!("{}: the URL must start with grpc://", settings.url))
+            })?
+            .trim_end_matches('/');
+        let endpoint = Endpoint::from_shared(format!("http://{address}"))
+            .map_err(|e| Error::Failed(format!("{}: {e}", settings.url)))?
+            .connect_timeout(settings.timeout)
+            .tcp_nodelay(true);
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .thread_name("ori-reapi")
+            .enable_all()
+            .build()
+            .map_err(|e| Error::Failed(format!("cannot start the REAPI client's runtime: {e}")))?;
+        let channel = {
+            let _entered = runtime.enter();
+            endpoint.connect_lazy()
+        };
+        Ok(Client {
+            runtime: Some(runtime),
+            channel,
+            settings,
+            batch_limit: AtomicU64::new(0),
+            uploads: AtomicU64::new(0),
+        })
+    }
+
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// Run `work` within the request timeout.
+    pub(crate) fn call<T>(&self, work: impl Future<Output = Result<T, Error>>) -> Result<T, Error> {
+        self.wait(self.settings.timeout, work)
+    }
+
+    fn wait<T>(
+        &self,
+        limit: Duration,
+        work: impl Future<Output = Result<T, Error>>,
+    ) -> Result<T, Error> {
+        let runtime = self.runtime.as_ref().expect("taken only on drop");
+        match runtime.block_on(async { tokio::time::timeout(limit, work).await }) {
+            Ok(result) => result,
+            Err(_) => Err(Error::Unavailable(format!(
+                "no answer within {} s",
+                limit.as_secs_f64()
+            ))),
+        }
+    }
+
+    pub(crate) fn channel(&self) -> Channel {
+        self.channel.clone()
+    }
+
+    pub(crate) fn request<T>(&self, message: T) -> tonic::Request<T> {
+        let mut request = tonic::Request::new(message);
+        if let Some(token) = &self.settings.token
+            && let Ok(value) = format!("Bearer {token}").parse()
+        {
+            request.metadata_mut().insert("authorization", value);
+        }
+        request
+    }
+
+    fn instance(&self) -> String {
+        self.settings.instance_name.clone()
+    }
+
+    /// A ByteStream resource name under the instance.
+    fn resource(&self, tail: String) -> String {
+        match self.settings.instance_name.as_str() {
+            "" => tail,
+            instance => format!("{instance}/{tail}"),
+        }
+    }
+
+    pub fn capabilities(&self) -> Result<ServerCapabilities, Error> {
+        self.call(async {
+            let mut client = CapabilitiesClient::new(self.channel.clone());
+            let request = self.request(GetCapabilitiesRequest {
+                instance_name: self.instance(),
+            });
+            Ok(client.get_capabilities(request).await?.into_inner())
+        })
+    }
+
+    fn batch_limit(&self) -> u64 {
+        match self.batch_limit.load(Ordering::Relaxed) {
+            0 => {
+                let stated = self
+                    .capabilities()
+                    .ok()
+                    .and_then(|c| c.cache_capabilities)
+                    .map_or(0, |c| c.max_batch_total_size_bytes.max(0) as u64);
+                let limit = match stated {
+                    0 => DEFAULT_BATCH_LIMIT,
+                    n => n.min(DEFAULT_BATCH_LIMIT),
+                };
+                self.batch_limit.store(limit, Ordering::Relaxed);
+                limit
+            }
+            limit => limit,
+        }
+    }
+
+    /// The digests of `digests` the server lacks.
+    pub fn find_missing(&self, digests: &[Digest]) -> Result<Vec<Digest>, Error> {
+        if digests.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.call(async {
+            let mut client = ContentAddressableStorageClient::new(self.channel.clone());
+            let request = self.request(FindMissingBlobsRequest {
+                instance_name: self.instance(),
+                blob_digests: digests.to_vec(),
+                digest_function: 0,
+            });
+            Ok(client
+                .find_missing_blobs(request)
+                .await?
+                .into_inner()
+                .missing_blob_digests)
+        })
+    }
+
+    /// Store the blobs the server lacks (small ones in batches, large ones by ByteStream).
+    pub fn upload_missing(&self, blobs: &[(Digest, &[u8])]) -> Result<(), Error> {
+        let digests: Vec<Digest> = blobs.iter().map(|(d, _)| d.clone()).collect();
+        let missing = self.find_missing(&digests)?;
+        let wanted: Vec<(Digest, &[u8])> = blobs
+            .iter()
+            .filter(|(d, _)| missing.contains(d))
+            .cloned()
+            .collect();
+        self.upload(&wanted)
+    }
+
+    /// Store these blobs, whether or not the server has them.
+    pub fn upload(&self, blobs: &[(Digest, &[u8])]) -> Result<(), Error> {
+        let limit = self.batch_limit().saturating_sub(BATCH_OVERHEAD);
+        let (large, small): (Vec<_>, Vec<_>) = blobs
+            .iter()
+            .partition(|(_, bytes)| bytes.len() as u64 > limit);
+        for (digest, bytes) in large {
+            self.write(digest, bytes)?;
+        }
+        let mut batch = Vec::new();
+        let mut batch_bytes = 0u64;
+        for blob in small {
+            if batch_bytes + blob.1.len() as u64 > limit {
+                self.batch_upload(&std::mem::take(&mut batch))?;
+                batch_bytes = 0;
+            }
+            batch_bytes += blob.1.len() as u64;
+            batch.push(blob);
+        }
+        self.batch_upload(&batch)
+    }
+
+    fn batch_upload(&self, blobs: &[&(Digest, &[u8])]) -> Result<(), Error> {
+        if blobs.is_empty() {
+            return Ok(());
+        }
+        let responses = self.call(async {
+            let mut client = ContentAddressableStorageClient::new(self.channel.clone());
+            let request = self.request(BatchUpdateBlobsRequest {
+                instance_name: self.instance(),
+                requests: blobs
+                    .iter()
+                    .map(|(digest, bytes)| batch_update_blobs_request::Request {
+                        digest: Some(digest.clone()),
+                        data: bytes.to_vec(),
+                        compressor: 0,
+                    })
+                    .collect(),
+                digest_function: 0,
+            });
+            Ok(client.batch_update_blobs(request).await?.into_inner())
+        })?;
+        for response in responses.responses {
+            if let Some(status) = response.status.filter(|s| s.code != 0) {
+                return Err(Error::Failed(format!(
+                    "upload of blob {} refused: {}",
+                    response.digest.map(|d| d.hash).unwrap_or_default(),
+                    status.message
+                )));
+            }
+        }
+        self.uploads
+            .fetch_add(blobs.len() as u64, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// Store one blob by ByteStream, in chunks.
+    fn write(&self, digest: &Digest, bytes: &[u8]) -> Result<(), Error> {
+        let upload = format!(
+            "uploads/{}/blobs/{}/{}",
+            upload_id(digest),
+            digest.hash,
+            digest.size_bytes
+        );
+        let name = self.resource(upload);
+        let chunks: Vec<WriteRequest> = bytes
+            .chunks(CHUNK)
+            .chain(bytes.is_empty().then_some(&[][..]))
+            .enumerate()
+            .map(|(k, chunk)| WriteRequest {
+                resource_name: if k == 0 { name.clone() } else { String::new() },
+                write_offset: (k * CHUNK) as i64,
+                finish_write: (k + 1) * CHUNK >= bytes.len(),
+                data: chunk.to_vec(),
+            })
+            .collect();
+        let committed = self.call(async {
+            let mut client = ByteStreamClient::new(self.channel.clone());
+            let stream = futures::stream::iter(chunks);
+            Ok(client
+                .write(self.request(stream))
+                .await?
+                .into_inner()
+                .committed_size)
+        })?;
+        if committed != digest.size_bytes {
+            return Err(Error::Failed(format!(
+                "upload of blob {}: the server committed {committed} of {} bytes",
+                digest.hash, digest.size_bytes
+            )));
+        }
+        self.uploads.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// The blob's bytes, checked against its digest; `limit`: the most bytes accepted.
+    pub fn download(&self, digest: &Digest, limit: u64) -> Result<Vec<u8>, Error> {
+        let size = u64::try_from(digest.size_bytes)
+            .map_err(|_| Error::Failed(format!("blob {}: negative size", digest.hash)))?;
+        if size > limit {
+            return Err(Error::Failed(format!(
+                "blob {}: {size} bytes, more than the {limit} accepted",
+                digest.hash
+            )));
+        }
+        let bytes = if size + BATCH_OVERHEAD <= self.batch_limit() {
+            self.batch_read(digest)?
+        } else {
+            self.read(digest, size)?
+        };
+        if digest_of(&bytes) != *digest {
+            return Err(Error::Failed(format!(
+                "blob {}: the server's bytes do not match its digest",
+                digest.hash
+            )));
+        }
+        Ok(bytes)
+    }
+
+    fn batch_read(&self, digest: &Digest) -> Result<Vec<u8>, Error> {
+        let responses = self.call(async {
+            let mut client = ContentAddressableStorageClient::new(self.channel.clone());
+            let request = self.request(BatchReadBlobsRequest {
+                instance_name: self.instance(),
+                digests: vec![digest.clone()],
+                acceptable_compressors: Vec::new(),
+                digest_function: 0,
+            });
+            Ok(client.batch_read_blobs(request).await?.into_inner())
+        })?;
+        let response = responses
+            .responses
+            .into_iter()
+            .find(|r| r.digest.as_ref() == Some(digest))
+            .ok_or_else(|| Error::Failed(format!("blob {}: not in the answer", digest.hash)))?;
+        match response.status {
+            Some(status) if status.code != 0 => Err(Error::Failed(format!(
+                "blob {}: {}",
+                digest.hash, status.message
+            ))),
+            _ => Ok(response.data),
+        }
+    }
+
+    fn read(&self, digest: &Digest, size: u64) -> Result<Vec<u8>, Error> {
+        let name = self.resource(format!("blobs/{}/{}", digest.hash, digest.size_bytes));
+        self.call(async {
+            let mut client = ByteStreamClient::new(self.channel.clone());
+            let request = self.request(ReadRequest {
+                resource_name: name,
+                read_offset: 0,
+                read_limit: 0,
+            });
+            let mut stream = client.read(request).await?.into_inner();
+            let mut bytes = Vec::with_capacity(size as usize);
+            while let Some(message) = stream.message().await? {
+                if (bytes.len() + message.data.len()) as u64 > size {
+                    return Err(Error::Failed(format!(
+                        "blob {}: the server sent more than {size} bytes",
+                        digest.hash
+                    )));
+                }
+                bytes.extend_from_slice(&message.data);
+            }
+            Ok(bytes)
+        })
+    }
+
+    /// The action cache's result for `action`, if any.
+    pub fn cached_result(&self, action: &Digest) -> Result<Option<ActionResult>, Error> {
+        self.call(async {
+            let mut client = ActionCacheClient::new(self.channel.clone());
+            let request = self.request(GetActionResultRequest {
+                instance_name: self.instance(),
+                action_digest: Some(action.clone()),
+                inline_stdout: false,
+                inline_stderr: false,
+                inline_output_files: Vec::new(),
+                digest_function: 0,
+            });
+            match client.get_action_result(request).await {
+                Ok(response) => Ok(Some(response.into_inner())),
+                Err(status) if status.code() == Code::NotFound => Ok(None),
+                Err(status) => Err(status.into()),
+            }
+        })
+    }
+
+    /// Execute `action` (its command, input root and platform already stored) and wait up to
+    /// `limit` for its response; a dropped stream is resumed with `WaitExecution`.
+    pub fn execute(&self, action: &Digest, limit: Duration) -> Result<ExecuteResponse, Error> {
+        self.wait(limit, async {
+            let mut client = ExecutionClient::new(self.channel.clone());
+            let request = self.request(ExecuteRequest {
+                instance_name: self.instance(),
+                skip_cache_lookup: false,
+                action_digest: Some(action.clone()),
+                execution_policy: None,
+                results_cache_policy: None,
+                digest_function: 0,
+                inline_stdout: false,
+                inline_stderr: false,
+                inline_output_files: Vec::new(),
+            });
+            let mut stream = client.execute(request).await?.into_inner();
+            let mut name = String::new();
+            loop {
+                match stream.message().await {
+                    Ok(Some(op)) => {
+                        name.clone_from(&op.name);
+                        if op.done {
+                            return finished(op);
+                        }
+                    }
+                    // The stream ended or broke before the operation finished: wait on it by name.
+                    Ok(None) | Err(_) if !name.is_empty() => {
+                        let request = self.request(WaitExecutionRequest { name: name.clone() });
+                        stream = client.wait_execution(request).await?.into_inner();
+                    }
+                    Ok(None) => {
+                        return Err(Error::Unavailable(
+                            "the server ended the execution stream before naming the operation"
+                                .into(),
+                        ));
+                    }
+                    Err(status) => return Err(status.into()),
+                }
+            }
+        })
+    }
+
+    /// Blobs uploaded so far.
+    pub fn uploads(&self) -> u64 {
+        self.uploads.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Client {
+    fn drop(&mut self) {
+        // Dropping a runtime inside another one (a test's) panics; shutting it down does not.
+        if let Some(runtime) = self.runtime.take() {
+            runtime.shutdown_background();
+        }
+    }
+}
+
+/// The `ExecuteResponse` of a finished operation.
+fn finished(op: Operation) -> Result<ExecuteResponse, Error> {
+    match op.result {
+        Some(operation::Result::Response(any)) => ExecuteResponse::decode(any.value.as_slice())
+            .map_err(|e| {
+                Error::Failed(format!(
+                    "operation {}: not an ExecuteResponse: {e}",
+                    op.name
+                ))
+            }),
+        Some(operation::Result::Error(status)) => Err(Error::Failed(format!(
+            "operation {}: {}",
+            op.name, status.message
+        ))),
+        None => Err(Error::Failed(format!(
+            "operation {} finished with no result",
+            op.name
+        ))),
+    }
+}
+
+/// A fresh upload id (a name unique to this process's writes; ByteStream asks for a UUID, and
+/// servers accept any unique string).
+fn upload_id(digest: &Digest) -> String {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    let seed = format!("{}-{}-{n}-{}", std::process::id(), digest.hash, now_nanos());
+    let hash = Sha256::digest(seed.as_bytes());
+    let hex: String = hash[..16].iter().map(|b| format!("{b:02x}")).collect();
+    format!(
+        "{}-{}-{}-{}-{}",
+        &hex[0..8],
+        &hex[8..12],
+        &hex[12..16],
+        &hex[16..20],
+        &hex[20..32]
+    )
+}
+
+fn now_nanos() -> u128 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos())
+}

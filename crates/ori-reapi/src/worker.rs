@@ -1,0 +1,603 @@
+//! A BuildGrid bot: it holds a session with the server's `Bots` service, takes one lease at a
+//! time, and runs its action: the input root laid out in a fresh folder, the command run
+//! there (killed at the action's timeout or when the lease is cancelled), the outputs stored
+//! in the server's CAS and the `ActionResult` handed back with the lease. It runs any action,
+//! not only the pipeline's; every name in an input root is checked to stay inside its folder.
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use bazel_remote_apis::build::bazel::remote::execution::v2::{
+    Action, ActionResult, Command, Digest, Directory, DirectoryNode, ExecutedActionMetadata,
+    FileNode, OutputDirectory, OutputFile, Tree,
+};
+use bazel_remote_apis::google::protobuf::Any;
+use bazel_remote_apis::google::rpc::Status;
+use prost::Message;
+
+use crate::bots::{
+    BotSession, BotStatus, BotsClient, CreateBotSessionRequest, Device, Lease, LeaseState,
+    Property, UpdateBotSessionRequest, Worker,
+};
+use crate::client::{Client, Error, Settings, digest_of};
+
+const ACTION_TYPE: &str = "type.googleapis.com/build.bazel.remote.execution.v2.Action";
+const DIGEST_TYPE: &str = "type.googleapis.com/build.bazel.remote.execution.v2.Digest";
+const RESULT_TYPE: &str = "type.googleapis.com/build.bazel.remote.execution.v2.ActionResult";
+
+/// The most bytes of one input blob fetched (the tool, a mesh).
+const MAX_BLOB_BYTES: u64 = 1 << 32;
+/// The most entries (files and folders) of one input root.
+const MAX_ENTRIES: usize = 1 << 20;
+/// The deepest folder of an input root.
+const MAX_DEPTH: usize = 64;
+/// How long a bot waits between updates while it runs a lease (well within the server's
+/// session keepalive; a finished lease is reported at once).
+const BEAT: Duration = Duration::from_secs(1);
+
+/// How a worker runs.
+#[derive(Clone, Debug)]
+pub struct WorkerOptions {
+    pub server: Settings,
+    /// The bot's name on the server (unique per bot).
+    pub bot_id: String,
+    /// Where each lease's input root is laid out (a folder per lease, removed afterwards).
+    pub work_dir: PathBuf,
+}
+
+/// The lease being run: the lease as last reported, and what its thread will leave.
+struct Running {
+    lease: Lease,
+    cancel: Arc<AtomicBool>,
+    done: std::sync::mpsc::Receiver<Result<ActionResult, LeaseError>>,
+}
+
+/// Why a lease gave no result: BuildGrid gives a lease reported `INTERNAL` to a bot again
+/// (up to its attempts), and fails the action with any other code.
+struct LeaseError {
+    code: tonic::Code,
+    message: String,
+}
+
+impl LeaseError {
+    /// Worth another try (on this bot or another): inputs that did not arrive, a full disk.
+    fn retry(message: impl Into<String>) -> LeaseError {
+        LeaseError {
+            code: tonic::Code::Internal,
+            message: message.into(),
+        }
+    }
+
+    /// Final: the action itself is wrong, or ran out of time.
+    fn fatal(code: tonic::Code, message: impl Into<String>) -> LeaseError {
+        LeaseError {
+            code,
+            message: message.into(),
+        }
+    }
+
+    /// Final: the action cannot be run as written.
+    fn invalid(message: impl std::fmt::Display) -> LeaseError {
+        LeaseError::fatal(tonic::Code::InvalidArgument, message.to_string())
+    }
+}
+
+impl From<String> for LeaseError {
+    fn from(message: String) -> LeaseError {
+        LeaseError::retry(message)
+    }
+}
+
+/// Serve leases until `stop` is set; `log` is told what happens.
+///
+/// BuildGrid's bot protocol, as it serves it: the server names the session; every update
+/// sends back the session it last returned (its `version` included), with only the states,
+/// statuses and results of the leases changed; a lease arrives `ACTIVE`; a lease missing from
+/// an answer was cancelled; an update waits for work while the bot is idle.
+pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Result<(), String> {
+    std::fs::create_dir_all(&options.work_dir)
+        .map_err(|e| format!("{}: {e}", options.work_dir.display()))?;
+    let client = Arc::new(Client::connect(options.server.clone()).map_err(|e| e.to_string())?);
+    let mut session: Option<BotSession> = None;
+    let mut running: Option<Running> = None;
+    let mut serial = 0u64;
+    while !stop.load(Ordering::Relaxed) {
+        let answer = match session.take() {
+            None => create_session(&client, &options.bot_id).inspect(|created| {
+                log(&format!(
+                    "bot session {} on {}",
+                    created.name, options.server.url
+                ));
+            }),
+            Some(mut current) => {
+                // Wait for the running lease to finish, a beat at most, then report.
+                if let Some(run) = &running {
+                    match run.done.recv_timeout(BEAT) {
+                        Ok(result) => {
+                            let lease = &mut current.leases;
+                            let finished = complete(run.lease.clone(), result);
+                            log(&format!("lease {}: finished", finished.id));
+                            lease.retain(|l| l.id != finished.id);
+                            lease.push(finished);
+                            running = None;
+                        }
+                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
+                        Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                            let lost = LeaseError::retry("the lease's thread ended");
+                            current.leases.retain(|l| l.id != run.lease.id);
+                            current.leases.push(complete(run.lease.clone(), Err(lost)));
+                            running = None;
+                        }
+                    }
+                }
+                current.status = BotStatus::Ok as i32;
+                update_session(&client, current)
+            }
+        };
+        let answer = match answer {
+            Ok(answer) => answer,
+            Err(Error::Failed(e)) => {
+                // The server forgot the session (restarted, or timed it out): start anew.
+                log(&format!("bot session refused: {e}; opening a new one"));
+                continue;
+            }
+            Err(Error::Unavailable(e)) => {
+                log(&format!(
+                    "cannot reach {}: {e}; trying again",
+                    options.server.url
+                ));
+                std::thread::sleep(Duration::from_secs(1));
+                continue;
+            }
+        };
+        // A running lease the server no longer lists was cancelled.
+        if let Some(run) = running.take_if(|r| !answer.leases.iter().any(|l| l.id == r.lease.id)) {
+            log(&format!("lease {}: cancelled", run.lease.id));
+            run.cancel.store(true, Ordering::Relaxed);
+        }
+        for lease in &answer.leases {
+            let active = lease.state == LeaseState::Active as i32;
+            if active && running.is_none() {
+                serial += 1;
+                let dir = options.work_dir.join(format!("lease-{serial}"));
+                running = Some(start(lease.clone(), &client, dir, &options.bot_id, log));
+            }
+        }
+        session = Some(answer);
+    }
+    if let Some(run) = running {
+        run.cancel.store(true, Ordering::Relaxed);
+    }
+    Ok(())
+}
+
+/// The bot as the server sees it: one device, no platform properties (the pipeline's actions
+/// ask for none), one lease at a time.
+fn bot_session(bot_id: &str) -> BotSession {
+    BotSession {
+        bot_id: bot_id.to_string(),
+        status: BotStatus::Ok as i32,
+        worker: Some(Worker {
+            devices: vec![Device {
+                handle: bot_id.to_string(),
+                properties: Vec::new(),
+            }],
+            properties: Vec::new(),
+            configs: vec![Property {
+                key: "capacity".to_string(),
+                value: "1".to_string(),
+            }],
+        }),
+        ..BotSession::default()
+    }
+}
+
+/// How long the server may hold an update while the bot is idle (it answers at once when
+/// work comes).
+const LONG_POLL: Duration = Duration::from_secs(30);
+
+fn create_session(client: &Client, bot_id: &str) -> Result<BotSession, Error> {
+    client.call(async {
+        let mut bots = BotsClient::new(client.channel());
+        let mut request = client.request(CreateBotSessionRequest {
+            parent: client.settings().instance_name.clone(),
+            bot_session: Some(bot_session(bot_id)),
+        });
+        request.set_timeout(LONG_POLL);
+        Ok(bots.create_bot_session(request).await?)
+    })
+}
+
+fn update_session(client: &Client, session: BotSession) -> Result<BotSession, Error> {
+    client.call(async {
+        let mut bots = BotsClient::new(client.channel());
+        let mut request = client.request(UpdateBotSessionRequest {
+            name: session.name.clone(),
+            bot_session: Some(session),
+            update_mask: None,
+        });
+        request.set_timeout(LONG_POLL);
+        Ok(bots.update_bot_session(request).await?)
+    })
+}
+
+/// Run `lease` on a thread of its own.
+fn start(
+    lease: Lease,
+    client: &Arc<Client>,
+    dir: PathBuf,
+    bot_id: &str,
+    log: &dyn Fn(&str),
+) -> Running {
+    log(&format!("lease {}: running", lease.id));
+    let cancel = Arc::new(AtomicBool::new(false));
+    let (send, done) = std::sync::mpsc::channel();
+    let payload = lease.payload.clone();
+    let (client, flag, bot) = (client.clone(), cancel.clone(), bot_id.to_string());
+    std::thread::spawn(move || {
+        let result = match payload {
+            Some(payload) => execute(&client, &payload, &dir, &bot, &flag),
+            None => Err(LeaseError::fatal(
+                tonic::Code::InvalidArgument,
+                "the lease has no payload",
+            )),
+        };
+        let _ = std::fs::remove_dir_all(&dir);
+        let _ = send.send(result);
+    });
+    Running {
+        lease,
+        cancel,
+        done,
+    }
+}
+
+/// The lease, completed with `result` (or its error).
+fn complete(mut lease: Lease, result: Result<ActionResult, LeaseError>) -> Lease {
+    lease.state = LeaseState::Completed as i32;
+    match result {
+        Ok(result) => {
+            lease.result = Some(Any {
+                type_url: RESULT_TYPE.to_string(),
+                value: result.encode_to_vec(),
+            });
+            lease.status = Some(Status::default());
+        }
+        Err(e) => {
+            lease.result = None;
+            lease.status = Some(Status {
+                code: e.code as i32,
+                message: e.message,
+                details: Vec::new(),
+            });
+        }
+    }
+    lease
+}
+
+/// Run the action of `payload` in `dir`.
+fn execute(
+    client: &Client,
+    payload: &Any,
+    dir: &Path,
+    bot_id: &str,
+    cancel: &AtomicBool,
+) -> Result<ActionResult, LeaseError> {
+    let action = match payload.type_url.as_str() {
+        ACTION_TYPE => Action::decode(payload.value.as_slice()).map_err(LeaseError::invalid)?,
+        DIGEST_TYPE => {
+            let digest = Digest::decode(payload.value.as_slice()).map_err(LeaseError::invalid)?;
+            let bytes = client
+                .download(&digest, MAX_BLOB_BYTES)
+                .map_err(|e| e.to_string())?;
+            Action::decode(bytes.as_slice()).map_err(LeaseError::invalid)?
+        }
+        other => {
+            return Err(LeaseError::invalid(format!(
+                "a lease payload of type `{other}` is not an action"
+            )));
+        }
+    };
+    let fetch = |digest: &Option<Digest>, what: &str| {
+        let digest = digest
+            .as_ref()
+            .ok_or_else(|| format!("the action has no {what}"))?;
+        client
+            .download(digest, MAX_BLOB_BYTES)
+            .map_err(|e| format!("{what}: {e}"))
+    };
+    let command = Command::decode(fetch(&action.command_digest, "command")?.as_slice())
+        .map_err(|e| LeaseError::invalid(format!("the command: {e}")))?;
+    let root = Directory::decode(fetch(&action.input_root_digest, "input root")?.as_slice())
+        .map_err(|e| LeaseError::invalid(format!("the input root: {e}")))?;
+    // The input root in `root`, the command's standard output and error beside it.
+    let input_root = dir.join("root");
+    let _ = std::fs::remove_dir_all(dir);
+    std::fs::create_dir_all(&input_root).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut entries = 0;
+    lay_out(client, &root, &input_root, 0, &mut entries)?;
+    let workdir =
+        join_relative(&input_root, &command.working_directory).map_err(LeaseError::invalid)?;
+    let program = command
+        .arguments
+        .first()
+        .ok_or_else(|| LeaseError::invalid("the command has no arguments"))?;
+    let program = if program.contains('/') {
+        join_relative(&workdir, program).map_err(LeaseError::invalid)?
+    } else {
+        PathBuf::from(program)
+    };
+    let started = Instant::now();
+    let timeout = action
+        .timeout
+        .map(|t| Duration::from_secs(t.seconds.max(0) as u64))
+        .filter(|t| !t.is_zero())
+        .unwrap_or(Duration::from_secs(3600));
+    let stdout_path = dir.join("stdout");
+    let stderr_path = dir.join("stderr");
+    let file =
+        |path: &Path| std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()));
+    let mut child = std::process::Command::new(&program)
+        .args(&command.arguments[1..])
+        .envs(
+            command
+                .environment_variables
+                .iter()
+                .map(|v| (v.name.clone(), v.value.clone())),
+        )
+        .current_dir(&workdir)
+        .stdin(Stdio::null())
+        .stdout(file(&stdout_path)?)
+        .stderr(file(&stderr_path)?)
+        .spawn()
+        .map_err(|e| format!("{}: cannot start: {e}", program.display()))?;
+    let status = loop {
+        if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
+            break status;
+        }
+        if cancel.load(Ordering::Relaxed) || started.elapsed() > timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(LeaseError::fatal(
+                tonic::Code::DeadlineExceeded,
+                format!("stopped after {} s", started.elapsed().as_secs()),
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut result = ActionResult {
+        exit_code: status.code().unwrap_or(-1),
+        ..ActionResult::default()
+    };
+    let mut blobs: Vec<(Digest, Vec<u8>)> = Vec::new();
+    let mut store = |bytes: Vec<u8>| {
+        let digest = digest_of(&bytes);
+        blobs.push((digest.clone(), bytes));
+        digest
+    };
+    for (path, slot) in [(&stdout_path, 0), (&stderr_path, 1)] {
+        let bytes = std::fs::read(path).unwrap_or_default();
+        let digest = store(bytes);
+        if slot == 0 {
+            result.stdout_digest = Some(digest);
+        } else {
+            result.stderr_digest = Some(digest);
+        }
+    }
+    #[allow(deprecated)]
+    let paths: Vec<&String> = if command.output_paths.is_empty() {
+        command
+            .output_files
+            .iter()
+            .chain(&command.output_directories)
+            .collect()
+    } else {
+        command.output_paths.iter().collect()
+    };
+    for path in paths {
+        let full = join_relative(&workdir, path).map_err(LeaseError::invalid)?;
+        let Ok(meta) = std::fs::symlink_metadata(&full) else {
+            continue;
+        };
+        if meta.is_dir() {
+            let tree = tree_of(&full, &mut store, 0)?;
+            let (root, children) = tree;
+            let tree = Tree {
+                root: Some(root),
+                children,
+            };
+            let digest = store(tree.encode_to_vec());
+            result.output_directories.push(OutputDirectory {
+                path: path.clone(),
+                tree_digest: Some(digest),
+                ..OutputDirectory::default()
+            });
+        } else if meta.is_file() {
+            let bytes = std::fs::read(&full).map_err(|e| format!("{}: {e}", full.display()))?;
+            result.output_files.push(OutputFile {
+                path: path.clone(),
+                digest: Some(store(bytes)),
+                is_executable: is_executable(&meta),
+                ..OutputFile::default()
+            });
+        }
+    }
+    let refs: Vec<(Digest, &[u8])> = blobs
+        .iter()
+        .map(|(d, b)| (d.clone(), b.as_slice()))
+        .collect();
+    client
+        .upload_missing(&refs)
+        .map_err(|e| format!("storing the outputs: {e}"))?;
+    result.execution_metadata = Some(ExecutedActionMetadata {
+        worker: bot_id.to_string(),
+        ..ExecutedActionMetadata::default()
+    });
+    Ok(result)
+}
+
+/// Write `directory`'s files and folders under `dir`.
+fn lay_out(
+    client: &Client,
+    directory: &Directory,
+    dir: &Path,
+    depth: usize,
+    entries: &mut usize,
+) -> Result<(), LeaseError> {
+    if depth > MAX_DEPTH {
+        return Err(LeaseError::invalid(format!(
+            "the input root is deeper than {MAX_DEPTH} folders"
+        )));
+    }
+    *entries += directory.files.len() + directory.directories.len();
+    if *entries > MAX_ENTRIES {
+        return Err(LeaseError::invalid(format!(
+            "the input root has more than {MAX_ENTRIES} entries"
+        )));
+    }
+    if !directory.symlinks.is_empty() {
+        return Err(LeaseError::invalid(
+            "the input root has symbolic links, which this worker does not lay out",
+        ));
+    }
+    for file in &directory.files {
+        let path = dir.join(component(&file.name).map_err(LeaseError::invalid)?);
+        let digest = file
+            .digest
+            .as_ref()
+            .ok_or_else(|| format!("{}: no digest", file.name))?;
+        let bytes = client
+            .download(digest, MAX_BLOB_BYTES)
+            .map_err(|e| format!("{}: {e}", file.name))?;
+        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+        if file.is_executable {
+            set_executable(&path)?;
+        }
+    }
+    for sub in &directory.directories {
+        let path = dir.join(component(&sub.name).map_err(LeaseError::invalid)?);
+        std::fs::create_dir(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let digest = sub
+            .digest
+            .as_ref()
+            .ok_or_else(|| format!("{}: no digest", sub.name))?;
+        let bytes = client
+            .download(digest, MAX_BLOB_BYTES)
+            .map_err(|e| format!("{}: {e}", sub.name))?;
+        let child = Directory::decode(bytes.as_slice())
+            .map_err(|e| LeaseError::invalid(format!("{}: {e}", sub.name)))?;
+        lay_out(client, &child, &path, depth + 1, entries)?;
+    }
+    Ok(())
+}
+
+/// One name of an input root: a single path component that stays in its folder.
+fn component(name: &str) -> Result<&str, String> {
+    if name.is_empty() || name == "." || name == ".." || name.contains(['/', '\0']) {
+        return Err(format!(
+            "`{name}` is not a file name an input root may hold"
+        ));
+    }
+    Ok(name)
+}
+
+/// `relative` (slash-separated, no `..`, not absolute) under `base`.
+fn join_relative(base: &Path, relative: &str) -> Result<PathBuf, String> {
+    let mut path = base.to_path_buf();
+    for part in relative.split('/').filter(|p| !p.is_empty() && *p != ".") {
+        path.push(component(part).map_err(|_| format!("`{relative}` leaves its folder"))?);
+    }
+    if relative.starts_with('/') {
+        return Err(format!("`{relative}` is absolute"));
+    }
+    Ok(path)
+}
+
+/// The tree of the folder `dir`: its `Directory` and those of every folder below.
+fn tree_of(
+    dir: &Path,
+    store: &mut dyn FnMut(Vec<u8>) -> Digest,
+    depth: usize,
+) -> Result<(Directory, Vec<Directory>), String> {
+    if depth > MAX_DEPTH {
+        return Err(format!("{}: too deep", dir.display()));
+    }
+    let mut names: Vec<(String, std::fs::Metadata)> = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+        let entry = entry.map_err(|e| format!("{}: {e}", dir.display()))?;
+        let meta = entry.metadata().map_err(|e| e.to_string())?;
+        let name = entry
+            .file_name()
+            .into_string()
+            .map_err(|n| format!("{}: a name that is not UTF-8: {n:?}", dir.display()))?;
+        names.push((name, meta));
+    }
+    names.sort_by(|a, b| a.0.cmp(&b.0));
+    let mut directory = Directory::default();
+    let mut children = Vec::new();
+    for (name, meta) in names {
+        let path = dir.join(&name);
+        if meta.is_dir() {
+            let (sub, below) = tree_of(&path, store, depth + 1)?;
+            let digest = digest_of(&sub.encode_to_vec());
+            directory.directories.push(DirectoryNode {
+                name,
+                digest: Some(digest),
+            });
+            children.push(sub);
+            children.extend(below);
+        } else if meta.is_file() {
+            let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+            directory.files.push(FileNode {
+                name,
+                digest: Some(store(bytes)),
+                is_executable: is_executable(&meta),
+                node_properties: None,
+            });
+        }
+    }
+    Ok((directory, children))
+}
+
+#[cfg(unix)]
+fn is_executable(meta: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    meta.permissions().mode() & 0o111 != 0
+}
+
+#[cfg(not(unix))]
+fn is_executable(_meta: &std::fs::Metadata) -> bool {
+    false
+}
+
+#[cfg(unix)]
+fn set_executable(path: &Path) -> Result<(), String> {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+#[cfg(not(unix))]
+fn set_executable(_path: &Path) -> Result<(), String> {
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_root_names_stay_in_their_folder() {
+        for bad in ["", ".", "..", "a/b", "x\0"] {
+            assert!(component(bad).is_err(), "{bad:?}");
+        }
+        let base = Path::new("/w");
+        assert_eq!(join_relative(base, "a/./b").unwrap(), Path::new("/w/a/b"));
+        assert_eq!(join_relative(base, "").unwrap(), Path::new("/w"));
+        assert!(join_relative(base, "a/../../etc").is_err());
+        assert!(join_relative(base, "/etc").is_err());
+    }
+}

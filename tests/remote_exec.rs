@@ -1,0 +1,241 @@
+//! End-to-end tests of remote execution on a real farm: PostgreSQL, a BuildGrid server and
+//! workers (`xtask reapi-worker`, the same binary as the builder) on 127.0.0.1
+//! (`xtask/src/buildgrid.rs`). `.ci/run` installs BuildGrid in `target/buildgrid-venv` and
+//! Debian's PostgreSQL; without them these tests fail, saying how to install them.
+
+#[path = "../xtask/src/buildgrid.rs"]
+mod buildgrid;
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use buildgrid::BuildGrid;
+use common::*;
+
+const SAMPLES: [&str; 2] = ["bunny", "box-vertex-colors"];
+/// The stages whose jobs read no source file: the ones a farm runs.
+const REMOTE_STAGES: [&str; 6] = ["views", "place", "bake", "select", "plt", "compress"];
+
+fn farm(workers: usize) -> BuildGrid {
+    let mut farm =
+        BuildGrid::start().unwrap_or_else(|e| panic!("cannot start the test's BuildGrid: {e}"));
+    for _ in 0..workers {
+        farm.add_worker(Path::new(EXE)).unwrap();
+    }
+    farm
+}
+
+/// A build of the project with cache `cache-NAME` and output `out-NAME`, on `farm` if given.
+fn build_command(p: &Project, name: &str, farm: Option<&BuildGrid>) -> Command {
+    let mut command = Command::new(EXE);
+    command
+        .args(["build-assets", "--no-report", "--config"])
+        .arg(p.path("pipeline.toml"))
+        .arg("--cache")
+        .arg(p.path(&format!("cache-{name}")))
+        .arg("--out")
+        .arg(p.path(&format!("out-{name}")))
+        .env("CI", "1");
+    if let Some(farm) = farm {
+        command.args(["--remote-exec", &farm.url]);
+    }
+    command
+}
+
+fn build(p: &Project, name: &str, farm: Option<&BuildGrid>) -> Output {
+    build_command(p, name, farm).output().unwrap()
+}
+
+/// The `remote` column of the summary line for `stage`.
+fn remote(out: &Output, stage: &str) -> usize {
+    let t = text(out);
+    t.lines()
+        .find(|l| l.split_whitespace().next() == Some(stage))
+        .and_then(|l| l.split_whitespace().nth(2))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
+}
+
+/// Wait for a build, calling `on_line` with each line it prints as it prints it; its output,
+/// and everything it printed.
+fn watch(mut child: std::process::Child, mut on_line: impl FnMut(&str)) -> (Output, String) {
+    let (send, receive) = std::sync::mpsc::channel::<String>();
+    let readers: Vec<_> = [
+        Box::new(child.stdout.take().unwrap()) as Box<dyn std::io::Read + Send>,
+        Box::new(child.stderr.take().unwrap()),
+    ]
+    .into_iter()
+    .map(|stream| {
+        let send = send.clone();
+        std::thread::spawn(move || {
+            for line in std::io::BufRead::lines(std::io::BufReader::new(stream)) {
+                let _ = send.send(line.unwrap_or_default());
+            }
+        })
+    })
+    .collect();
+    drop(send);
+    let mut log = String::new();
+    for line in receive {
+        on_line(&line);
+        log.push_str(&line);
+        log.push('\n');
+    }
+    for reader in readers {
+        reader.join().unwrap();
+    }
+    let status = child.wait().unwrap();
+    let out = Output {
+        status,
+        stdout: log.clone().into_bytes(),
+        stderr: Vec::new(),
+    };
+    (out, log)
+}
+
+fn execution_line(out: &Output) -> String {
+    let t = text(out);
+    t.lines()
+        .find(|l| l.starts_with("remote execution "))
+        .unwrap_or_else(|| panic!("no remote execution line:\n{t}"))
+        .to_string()
+}
+
+#[test]
+fn a_farm_builds_the_samples_as_this_machine_does_and_a_rebuild_runs_nothing() {
+    let p = Project::new(&SAMPLES);
+    let farm = farm(2);
+    let out = build(&p, "farm", Some(&farm));
+    let log = ok(&out);
+    for stage in REMOTE_STAGES {
+        assert_eq!(ran(&out, stage), 2, "{stage}:\n{log}");
+        assert_eq!(remote(&out, stage), 2, "{stage} ran here:\n{log}");
+    }
+    // Jobs that read the asset's files run where they are.
+    for stage in ["ingest", "package"] {
+        assert_eq!((ran(&out, stage), remote(&out, stage)), (2, 0), "{log}");
+    }
+    assert_eq!(
+        execution_line(&out),
+        format!("remote execution {}: 12 job(s) ran there", farm.url),
+        "{log}"
+    );
+    assert!(!log.contains("warning"), "{log}");
+
+    let local = build(&p, "local", None);
+    ok(&local);
+    same_release(
+        &tree(&p.path("out-farm")),
+        &tree(&p.path("out-local")),
+        "farm and local builds",
+    );
+
+    let again = build(&p, "farm", Some(&farm));
+    let log = ok(&again);
+    assert_eq!(ran_all(&again), [0; 8], "{log}");
+    assert!(
+        execution_line(&again).ends_with(": 0 job(s) ran there"),
+        "{log}"
+    );
+}
+
+#[test]
+fn a_farm_that_goes_away_leaves_the_rest_of_the_build_to_this_machine() {
+    let p = Project::new(&SAMPLES);
+    let mut farm = farm(1);
+    let child = build_command(&p, "farm", Some(&farm))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Kill the server once the builder has a job back from the farm.
+    let (out, log) = watch(child, |line| {
+        if line.contains("ran remotely") {
+            farm.kill_server();
+        }
+    });
+    ok(&out);
+    let warnings: Vec<&str> = log
+        .lines()
+        .filter(|l| l.starts_with("warning: remote execution "))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{log}");
+    assert!(
+        warnings[0].ends_with("the remaining jobs run here"),
+        "{log}"
+    );
+    assert!(
+        execution_line(&out).contains("unavailable during the build, the rest was built here"),
+        "{log}"
+    );
+    let remote_jobs: usize = REMOTE_STAGES.iter().map(|s| remote(&out, s)).sum();
+    assert!((1..12).contains(&remote_jobs), "{log}");
+
+    ok(&build(&p, "local", None));
+    same_release(
+        &tree(&p.path("out-farm")),
+        &tree(&p.path("out-local")),
+        "half-farm and local builds",
+    );
+}
+
+#[test]
+fn a_job_whose_worker_dies_runs_again_on_another() {
+    let p = Project::new(&SAMPLES);
+    let mut farm = farm(2);
+    let child = build_command(&p, "farm", Some(&farm))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The first lease a worker starts: kill that worker while it runs it.
+    let started = Instant::now();
+    let (victim, lease) = loop {
+        let running = (0..2).find_map(|n| {
+            let log = farm.worker_log(n);
+            let lease = log
+                .lines()
+                .find_map(|l| l.strip_suffix(": running"))?
+                .to_string();
+            (!log.contains(&format!("{lease}: finished"))).then_some((n, lease))
+        });
+        if let Some(found) = running {
+            break found;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no worker took a job:\n{}",
+            farm.log_tail()
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    farm.kill_worker(victim);
+    let out = child.wait_with_output().unwrap();
+    let log = ok(&out);
+    // Every job ran on the farm: the lost one again, on the other worker.
+    assert_eq!(
+        execution_line(&out),
+        format!("remote execution {}: 12 job(s) ran there", farm.url),
+        "{log}"
+    );
+    let other = farm.worker_log(1 - victim);
+    assert!(
+        other.contains(&format!("{lease}: running"))
+            && other.contains(&format!("{lease}: finished")),
+        "{lease} was not run again by the other worker:\n{other}"
+    );
+    assert!(
+        !farm
+            .worker_log(victim)
+            .contains(&format!("{lease}: finished"))
+    );
+
+    ok(&build(&p, "local", None));
+    same_release(
+        &tree(&p.path("out-farm")),
+        &tree(&p.path("out-local")),
+        "farm (one worker lost) and local builds",
+    );
+}
