@@ -62,6 +62,17 @@ pub enum Bench {
         #[arg(long, value_enum, default_value_t = crate::bench_remote::Store::Http)]
         store: crate::bench_remote::Store,
     },
+    /// Cold builds on a local BuildGrid farm (target/buildgrid-venv) with 1, 2, 3 workers,
+    /// against this machine alone and against `--shard K/N` in N processes: wall times, and
+    /// the farm's job time moving blobs, scheduling and running.
+    RemoteExec {
+        /// The models to build (default: ../shared/models).
+        #[arg(long)]
+        models: Option<std::path::PathBuf>,
+        /// Worker counts (each also the shard count compared).
+        #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
+        workers: Vec<usize>,
+    },
     /// A cold build of one model at a time, models of growing size: the build's seconds, each
     /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
     /// cost per 100k faces.
@@ -112,6 +123,9 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Select { runs } => select(runs),
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
+        Bench::RemoteExec { models, workers } => {
+            crate::bench_remote_exec::run(&models.unwrap_or_else(shared_models), &workers)
+        }
         Bench::Remote {
             baseline,
             models,

@@ -227,11 +227,13 @@ impl BuildGrid {
     }
 
     /// The log of worker `n`.
+    #[allow(dead_code)] // tests/remote_exec.rs
     pub fn worker_log(&self, n: usize) -> String {
         std::fs::read_to_string(self.dir.path().join(format!("worker-{n}.log"))).unwrap_or_default()
     }
 
     /// Kill worker `n` (as a crash would).
+    #[allow(dead_code)] // tests/remote_exec.rs
     pub fn kill_worker(&mut self, n: usize) {
         let _ = self.workers[n].kill();
         let _ = self.workers[n].wait();

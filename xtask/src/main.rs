@@ -5,7 +5,9 @@
 mod bench;
 mod bench_catalogue;
 mod bench_remote;
+mod bench_remote_exec;
 mod bench_scale;
+mod buildgrid;
 mod conformance;
 mod moto;
 mod nginx;

@@ -33,25 +33,30 @@ pub struct ActionJob {
     pub params: serde_json::Value,
     /// The job's inputs by name, with the content hash each is read and checked by.
     pub inputs: BTreeMap<String, ContentHash>,
+    /// The inputs the stage only identifies by their hash (`Input::Hashed`): not sent.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub hashed: BTreeMap<String, ContentHash>,
 }
 
 impl ActionJob {
     /// The action of `job` whose inputs have `hashes` (in the job's order), or `None` when the
     /// job reads a source file (it may also discover others next to it).
     pub fn of(job: &JobSpec, hashes: &[(String, ContentHash)]) -> Option<ActionJob> {
-        if job
-            .inputs
-            .iter()
-            .any(|(_, input)| matches!(input, Input::Source(_)))
-        {
-            return None;
+        let (mut inputs, mut hashed) = (BTreeMap::new(), BTreeMap::new());
+        for ((name, input), (_, hash)) in job.inputs.iter().zip(hashes) {
+            match input {
+                Input::Source(_) => return None,
+                Input::Hashed(_) => hashed.insert(name.clone(), *hash),
+                Input::Output { .. } => inputs.insert(name.clone(), *hash),
+            };
         }
         Some(ActionJob {
             stage: job.stage.name().to_string(),
             stage_version: job.stage.version(),
             asset: job.asset.clone(),
             params: job.params.clone(),
-            inputs: hashes.iter().cloned().collect(),
+            inputs,
+            hashed,
         })
     }
 
@@ -125,10 +130,20 @@ impl JobInputs for ActionInputs<'_> {
     }
 
     fn input_hash(&self, name: &str) -> Option<ContentHash> {
-        self.job.inputs.get(name).copied()
+        let job = self.job;
+        job.inputs
+            .get(name)
+            .or_else(|| job.hashed.get(name))
+            .copied()
     }
 
     fn input(&self, name: &str) -> Result<Vec<u8>, StageError> {
+        if self.job.hashed.contains_key(name) {
+            return Err(StageError::Plan(format!(
+                "input `{name}` is only hashed, never read, by stage `{}`",
+                self.job.stage
+            )));
+        }
         let Some(hash) = self.job.inputs.get(name) else {
             return Err(StageError::Plan(format!(
                 "stage `{}` has no input `{name}`",
@@ -186,6 +201,7 @@ mod tests {
             asset: "a.obj".into(),
             params,
             inputs: BTreeMap::from([("x".to_string(), ContentHash::of(bytes))]),
+            hashed: BTreeMap::new(),
         }
     }
 

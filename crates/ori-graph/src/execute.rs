@@ -21,6 +21,17 @@ pub enum ExecuteError {
     Failed(String),
 }
 
+/// Where the time of the jobs an executor ran went, summed over them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ExecutorTimes {
+    /// Moving blobs: uploading what it lacked, downloading the outputs.
+    pub transfer: std::time::Duration,
+    /// Waiting for results: queued, laid out, run, stored.
+    pub waiting: std::time::Duration,
+    /// Of the waiting, the time the jobs' commands ran (as the workers report it).
+    pub running: std::time::Duration,
+}
+
 /// Where jobs that are actions run instead of in this process.
 pub trait Executor: Send + Sync {
     /// Where it is, for messages (no credentials).
@@ -34,6 +45,10 @@ pub trait Executor: Send + Sync {
         job: &ActionJob,
         read: &dyn Fn(&ContentHash) -> Result<Vec<u8>, StageError>,
     ) -> Result<ActionOutputs, ExecuteError>;
+    /// Where the time of the jobs it ran so far went.
+    fn times(&self) -> ExecutorTimes {
+        ExecutorTimes::default()
+    }
 }
 
 /// An executor shared by the runs of a build.
@@ -70,6 +85,11 @@ impl RemoteExecution {
 
     pub fn max_in_flight(&self) -> usize {
         self.executor.max_in_flight().max(1)
+    }
+
+    /// Where the time of the jobs it ran went.
+    pub fn times(&self) -> ExecutorTimes {
+        self.executor.times()
     }
 
     /// Jobs it ran.

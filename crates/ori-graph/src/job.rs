@@ -15,6 +15,10 @@ pub enum Input {
     /// A file on disk, identified by its content hash. Files the stage discovers while running
     /// (`JobContext::read_discovered`) are resolved relative to this file's folder.
     Source(PathBuf),
+    /// A file on disk the stage identifies by its content hash only
+    /// (`JobContext::input_hash`) and never reads: a job with no other file input can run
+    /// where the file is not.
+    Hashed(PathBuf),
     /// A named output of an earlier job.
     Output { job: JobId, name: String },
 }

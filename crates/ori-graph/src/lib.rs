@@ -29,7 +29,7 @@ pub use action::{
 pub use cache::{
     ActionEntry, BlobRef, Cache, DiscoveredFile, JobRecord, ReadError, STAT_MEMO, write_atomic,
 };
-pub use execute::{ExecuteError, Executor, RemoteExecution};
+pub use execute::{ExecuteError, Executor, ExecutorTimes, RemoteExecution};
 pub use hash::{ContentHash, canonical_json, job_key};
 pub use job::{Graph, Input, JobId, JobSpec};
 pub use memo::{MEMO_SHARDS, MemoKey, MemoMap};

@@ -84,7 +84,7 @@ pub fn run<'g>(
                 .iter()
                 .filter_map(|(_, input)| match input {
                     Input::Output { job, .. } => Some(*job),
-                    Input::Source(_) => None,
+                    Input::Source(_) | Input::Hashed(_) => None,
                 })
                 .collect();
             for dep in &deps {
@@ -251,7 +251,7 @@ fn identity(job: &JobSpec) -> ContentHash {
 /// The job's source files (the asset's own files, which name it in messages).
 fn source_paths(job: &JobSpec) -> impl Iterator<Item = &Path> {
     job.inputs.iter().filter_map(|(_, input)| match input {
-        Input::Source(path) => Some(path.as_path()),
+        Input::Source(path) | Input::Hashed(path) => Some(path.as_path()),
         Input::Output { .. } => None,
     })
 }
@@ -260,7 +260,7 @@ fn source_paths(job: &JobSpec) -> impl Iterator<Item = &Path> {
 fn source_dir(job: &JobSpec) -> Option<&Path> {
     job.inputs.iter().find_map(|(_, input)| match input {
         Input::Source(path) => Some(path.parent().unwrap_or(Path::new(""))),
-        Input::Output { .. } => None,
+        Input::Hashed(_) | Input::Output { .. } => None,
     })
 }
 
@@ -295,7 +295,7 @@ impl<'g> Exec<'g> {
         let mut hashes = Vec::with_capacity(job.inputs.len());
         for (name, input) in &job.inputs {
             let hash = match input {
-                Input::Source(path) => match self.sources.hash(path) {
+                Input::Source(path) | Input::Hashed(path) => match self.sources.hash(path) {
                     Ok(Some(h)) => h,
                     Ok(None) => {
                         return Err(Outcome::Failed(format!(
@@ -693,7 +693,7 @@ struct JobReader<'a> {
 impl JobInputs for JobReader<'_> {
     fn source_path(&self, name: &str) -> Option<&Path> {
         self.job.inputs.iter().find_map(|(n, input)| match input {
-            Input::Source(path) if n == name => Some(path.as_path()),
+            Input::Source(path) | Input::Hashed(path) if n == name => Some(path.as_path()),
             _ => None,
         })
     }
@@ -731,6 +731,11 @@ impl JobInputs for JobReader<'_> {
                 }
                 Ok(bytes)
             }
+            Input::Hashed(path) => Err(StageError::Plan(format!(
+                "input `{name}` ({}) is only hashed, never read, by stage `{}`",
+                path.display(),
+                job.stage.name()
+            ))),
             Input::Output { job, name } => self.exec.read_output(*job, name),
         }
     }

@@ -86,6 +86,7 @@ mod tests {
                 asset: "a.obj".into(),
                 params: serde_json::json!({}),
                 inputs,
+                hashed: BTreeMap::new(),
             })
             .unwrap()
         };

@@ -225,13 +225,7 @@ impl RemoteConfig {
         {
             return bad("the port must be a number from 0 to 65535");
         }
-        if let Some(name) = &self.token_env
-            && (name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
-        {
-            return Err(format!(
-                "[cache.remote] token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
-            ));
-        }
+        check_token_env("[cache.remote]", self.token_env.as_deref())?;
         self.validate_timeout()
     }
 
@@ -248,15 +242,7 @@ impl RemoteConfig {
     /// The bearer token from `token_env`, read now (`None` without `token_env`). An unset
     /// or empty variable is an error naming the key and the variable.
     pub fn token(&self) -> Result<Option<String>, String> {
-        let Some(name) = &self.token_env else {
-            return Ok(None);
-        };
-        match std::env::var(name) {
-            Ok(token) if !token.is_empty() => Ok(Some(token)),
-            _ => Err(format!(
-                "[cache.remote] token_env = {name:?}: the environment variable {name} is not set"
-            )),
-        }
+        read_token("[cache.remote]", self.token_env.as_deref())
     }
 
     /// The remote cache this configures (reads the token, or the object store's settings).
@@ -327,31 +313,14 @@ impl ExecutionConfig {
                 self.max_in_flight
             ));
         }
-        if let Some(name) = &self.token_env
-            && (name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_'))
-        {
-            return Err(format!(
-                "[execution] token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
-            ));
-        }
-        Ok(())
+        check_token_env("[execution]", self.token_env.as_deref())
     }
 
     /// The remote executor this configures, on the farm at `url` (`[execution] remote` or the
     /// command line's); reads the token.
     pub fn open(&self, url: &str) -> Result<ori_graph::RemoteExecution, String> {
         check_grpc_url(url).map_err(|why| format!("remote execution {url:?}: {why}"))?;
-        let token = match &self.token_env {
-            None => None,
-            Some(name) => match std::env::var(name) {
-                Ok(token) if !token.is_empty() => Some(token),
-                _ => {
-                    return Err(format!(
-                        "[execution] token_env = {name:?}: the environment variable {name} is not set"
-                    ));
-                }
-            },
-        };
+        let token = read_token("[execution]", self.token_env.as_deref())?;
         let timeout = std::time::Duration::from_secs_f64(self.timeout_s);
         let settings = ori_reapi::client::Settings {
             url: url.to_string(),
@@ -362,6 +331,34 @@ impl ExecutionConfig {
         let executor =
             ori_reapi::executor::ReapiExecutor::new(settings, None, self.max_in_flight, timeout)?;
         Ok(ori_graph::RemoteExecution::new(Box::new(executor)))
+    }
+}
+
+/// A `token_env` key of `section` must name an environment variable.
+fn check_token_env(section: &str, name: Option<&str>) -> Result<(), String> {
+    match name {
+        Some(name)
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') =>
+        {
+            Err(format!(
+                "{section} token_env = {name:?}: expected the name of an environment variable (letters, digits, _)"
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// The bearer token in the variable a `token_env` key of `section` names, read now (`None`
+/// without the key). An unset or empty variable is an error naming the key and the variable.
+fn read_token(section: &str, name: Option<&str>) -> Result<Option<String>, String> {
+    let Some(name) = name else {
+        return Ok(None);
+    };
+    match std::env::var(name) {
+        Ok(token) if !token.is_empty() => Ok(Some(token)),
+        _ => Err(format!(
+            "{section} token_env = {name:?}: the environment variable {name} is not set"
+        )),
     }
 }
 
@@ -899,6 +896,38 @@ mod tests {
                 .ingest
                 .recompute_normals
         );
+    }
+
+    #[test]
+    fn execution_settings_are_checked() {
+        let c = parse("[execution]\nremote = \"grpc://farm:50051\"\nmax_in_flight = 4\n").unwrap();
+        assert_eq!(c.execution.remote.as_deref(), Some("grpc://farm:50051"));
+        assert_eq!(
+            (c.execution.max_in_flight, c.execution.timeout_s),
+            (4, 600.0)
+        );
+        for (text, says) in [
+            (
+                "remote = \"http://farm:50051\"",
+                "expected grpc://host:port",
+            ),
+            (
+                "remote = \"grpcs://farm:50051\"",
+                "grpcs (TLS) is not supported",
+            ),
+            ("remote = \"grpc://farm\"", "expected grpc://host:port"),
+            ("max_in_flight = 0", "expected 1 to 256"),
+            ("timeout_s = 0", "expected more than 0"),
+            (
+                "token_env = \"A-B\"",
+                "expected the name of an environment variable",
+            ),
+        ] {
+            let e = parse(&format!("[execution]\n{text}\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(says), "{text}: {e}");
+        }
     }
 
     #[test]

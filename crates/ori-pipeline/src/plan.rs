@@ -239,7 +239,7 @@ impl Planner {
             &package_params,
             vec![
                 // Hashed, never read: the manifest records the source's content hash.
-                (SOURCE, Input::Source(asset.path.clone())),
+                (SOURCE, Input::Hashed(asset.path.clone())),
                 MAPS.from(bake),
                 SELECTION.from(select),
                 PLT.from(plt),
@@ -283,7 +283,7 @@ impl Planner {
             if !planned.measure_only {
                 let params = TreeParams::new(&asset.name, &planned.params.hierarchy, tree);
                 let names: Vec<String> = (0..node_packages.len()).map(node_input).collect();
-                let mut inputs = vec![(SOURCE, Input::Source(asset.path.clone()))];
+                let mut inputs = vec![(SOURCE, Input::Hashed(asset.path.clone()))];
                 for (name, p) in names.iter().zip(&node_packages) {
                     let p = p.expect("a full chain has a package job");
                     inputs.push((name.as_str(), PACKAGE.of(p)));

@@ -84,6 +84,11 @@ pub struct ExecutionSummary {
     pub fell_back: u64,
     /// It went away during the build (the rest was built here).
     pub unavailable: bool,
+    /// Seconds spent moving blobs, waiting for results, and (of the waiting) running the
+    /// jobs' commands on the workers.
+    pub transfer_seconds: f64,
+    pub waiting_seconds: f64,
+    pub running_seconds: f64,
 }
 
 impl ExecutionSummary {
@@ -93,6 +98,9 @@ impl ExecutionSummary {
             executed: execution.executed(),
             fell_back: execution.fell_back(),
             unavailable: execution.is_gone(),
+            transfer_seconds: execution.times().transfer.as_secs_f64(),
+            waiting_seconds: execution.times().waiting.as_secs_f64(),
+            running_seconds: execution.times().running.as_secs_f64(),
         }
     }
 }
@@ -256,6 +264,12 @@ pub fn format_summary(s: &BuildSummary) -> String {
             "\nremote execution {}: {} job(s) ran there",
             e.url, e.executed
         ));
+        if e.executed > 0 {
+            out.push_str(&format!(
+                " (job seconds: {:.2} moving blobs, {:.2} waiting for results, of which {:.2} running)",
+                e.transfer_seconds, e.waiting_seconds, e.running_seconds
+            ));
+        }
         if e.fell_back > 0 {
             out.push_str(&format!(", {} sent there ran here", e.fell_back));
         }

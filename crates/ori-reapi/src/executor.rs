@@ -4,15 +4,17 @@
 //! action cache answers any builder that asks for the same job with the same tool.
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use bazel_remote_apis::build::bazel::remote::execution::v2::{
-    Action, ActionResult, Command, Digest, Directory, DirectoryNode, FileNode, Tree,
+    Action, ActionResult, Command, Digest, Directory, DirectoryNode, ExecutedActionMetadata,
+    FileNode, Tree,
 };
 use ori_graph::{
-    ActionJob, ActionLeft, ActionOutputs, ContentHash, ExecuteError, Executor, INPUTS_DIR,
-    JOB_FILE, LEFT_FILE, OUTPUTS_DIR, StageError,
+    ActionJob, ActionLeft, ActionOutputs, ContentHash, ExecuteError, Executor, ExecutorTimes,
+    INPUTS_DIR, JOB_FILE, LEFT_FILE, OUTPUTS_DIR, StageError,
 };
 use prost::Message;
 
@@ -51,6 +53,13 @@ impl Tool {
 /// Runs jobs on a REAPI server.
 pub struct ReapiExecutor {
     client: Client,
+    /// Whether the farm has the tool: the first job uploads it while the others wait, so
+    /// jobs started together do not each send it.
+    tool_stored: std::sync::Mutex<bool>,
+    /// Nanoseconds spent moving blobs, waiting on `Execute`, and running (workers' figures).
+    transfer: AtomicU64,
+    waiting: AtomicU64,
+    running: AtomicU64,
     tool: Arc<OnceLock<Result<Tool, String>>>,
     max_in_flight: usize,
     action_timeout: Duration,
@@ -72,6 +81,10 @@ impl ReapiExecutor {
         }
         Ok(ReapiExecutor {
             client,
+            tool_stored: std::sync::Mutex::new(false),
+            transfer: AtomicU64::new(0),
+            waiting: AtomicU64::new(0),
+            running: AtomicU64::new(0),
             tool: Arc::new(cell),
             max_in_flight,
             action_timeout,
@@ -246,16 +259,28 @@ impl Executor for ReapiExecutor {
             input_blobs.push((digest, bytes));
         }
         let action = build_action(job, &inputs, &tool.digest, self.action_timeout);
-        let mut blobs: Vec<(Digest, &[u8])> = vec![(tool.digest.clone(), &tool.bytes)];
+        let mut blobs: Vec<(Digest, &[u8])> = Vec::new();
         for (digest, bytes) in input_blobs.iter().chain(&action.blobs) {
             blobs.push((digest.clone(), bytes));
         }
         let run = || -> Result<ActionOutputs, Error> {
+            let started = Instant::now();
+            {
+                let mut stored = self.tool_stored.lock().unwrap_or_else(|e| e.into_inner());
+                if !*stored {
+                    self.client
+                        .upload_missing(&[(tool.digest.clone(), &tool.bytes)])?;
+                    *stored = true;
+                }
+            }
             self.client.upload_missing(&blobs)?;
+            add(&self.transfer, started.elapsed());
             // The wait covers the queue as well as the run.
+            let started = Instant::now();
             let response = self
                 .client
                 .execute(&action.digest, self.action_timeout * 2)?;
+            add(&self.waiting, started.elapsed());
             if let Some(status) = response.status.filter(|s| s.code != 0) {
                 return Err(Error::Failed(format!(
                     "the server could not run it: {}",
@@ -265,11 +290,44 @@ impl Executor for ReapiExecutor {
             let result = response
                 .result
                 .ok_or_else(|| Error::Failed("the response has no result".into()))?;
-            self.outputs(&result)
+            if let Some(ran) = result.execution_metadata.as_ref().and_then(command_time) {
+                add(&self.running, ran);
+            }
+            let started = Instant::now();
+            let outputs = self.outputs(&result);
+            add(&self.transfer, started.elapsed());
+            outputs
         };
         run().map_err(|e| match e {
             Error::Unavailable(why) => ExecuteError::Unavailable(why),
             Error::Failed(why) => ExecuteError::Failed(why),
         })
     }
+
+    fn times(&self) -> ExecutorTimes {
+        let read = |n: &AtomicU64| Duration::from_nanos(n.load(Ordering::Relaxed));
+        ExecutorTimes {
+            transfer: read(&self.transfer),
+            waiting: read(&self.waiting),
+            running: read(&self.running),
+        }
+    }
+}
+
+fn add(total: &AtomicU64, time: Duration) {
+    total.fetch_add(time.as_nanos() as u64, Ordering::Relaxed);
+}
+
+/// How long an action's command ran, from its worker's timestamps.
+fn command_time(metadata: &ExecutedActionMetadata) -> Option<Duration> {
+    let (start, end) = (
+        metadata.execution_start_timestamp.as_ref()?,
+        metadata.execution_completed_timestamp.as_ref()?,
+    );
+    let nanos = |t: &bazel_remote_apis::google::protobuf::Timestamp| {
+        i128::from(t.seconds) * 1_000_000_000 + i128::from(t.nanos)
+    };
+    u64::try_from(nanos(end) - nanos(start))
+        .ok()
+        .map(Duration::from_nanos)
 }

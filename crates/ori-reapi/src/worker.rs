@@ -163,7 +163,15 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
             if active && running.is_none() {
                 serial += 1;
                 let dir = options.work_dir.join(format!("lease-{serial}"));
-                running = Some(start(lease.clone(), &client, dir, &options.bot_id, log));
+                let tools = options.work_dir.join("programs");
+                running = Some(start(
+                    lease.clone(),
+                    &client,
+                    dir,
+                    tools,
+                    &options.bot_id,
+                    log,
+                ));
             }
         }
         session = Some(answer);
@@ -229,6 +237,7 @@ fn start(
     lease: Lease,
     client: &Arc<Client>,
     dir: PathBuf,
+    tools: PathBuf,
     bot_id: &str,
     log: &dyn Fn(&str),
 ) -> Running {
@@ -239,7 +248,7 @@ fn start(
     let (client, flag, bot) = (client.clone(), cancel.clone(), bot_id.to_string());
     std::thread::spawn(move || {
         let result = match payload {
-            Some(payload) => execute(&client, &payload, &dir, &bot, &flag),
+            Some(payload) => execute(&client, &payload, &dir, &tools, &bot, &flag),
             None => Err(LeaseError::fatal(
                 tonic::Code::InvalidArgument,
                 "the lease has no payload",
@@ -283,6 +292,7 @@ fn execute(
     client: &Client,
     payload: &Any,
     dir: &Path,
+    tools: &Path,
     bot_id: &str,
     cancel: &AtomicBool,
 ) -> Result<ActionResult, LeaseError> {
@@ -318,7 +328,7 @@ fn execute(
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(&input_root).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut entries = 0;
-    lay_out(client, &root, &input_root, 0, &mut entries)?;
+    lay_out(client, tools, &root, &input_root, 0, &mut entries)?;
     let workdir =
         join_relative(&input_root, &command.working_directory).map_err(LeaseError::invalid)?;
     let program = command
@@ -331,6 +341,7 @@ fn execute(
         PathBuf::from(program)
     };
     let started = Instant::now();
+    let execution_start = timestamp();
     let timeout = action
         .timeout
         .map(|t| Duration::from_secs(t.seconds.max(0) as u64))
@@ -368,6 +379,7 @@ fn execute(
         }
         std::thread::sleep(Duration::from_millis(20));
     };
+    let execution_completed = timestamp();
     let mut result = ActionResult {
         exit_code: status.code().unwrap_or(-1),
         ..ActionResult::default()
@@ -434,14 +446,85 @@ fn execute(
         .map_err(|e| format!("storing the outputs: {e}"))?;
     result.execution_metadata = Some(ExecutedActionMetadata {
         worker: bot_id.to_string(),
+        execution_start_timestamp: Some(execution_start),
+        execution_completed_timestamp: Some(execution_completed),
         ..ExecutedActionMetadata::default()
     });
     Ok(result)
 }
 
+fn timestamp() -> bazel_remote_apis::google::protobuf::Timestamp {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    bazel_remote_apis::google::protobuf::Timestamp {
+        seconds: now.as_secs() as i64,
+        nanos: now.subsec_nanos() as i32,
+    }
+}
+
+/// Programs kept between leases.
+const KEPT_PROGRAMS: usize = 4;
+
+/// Put the program of digest `digest` at `path`. Programs (the tool a build's actions run,
+/// the same in all of them) are kept between leases in `tools`, read-only, the last few, and
+/// linked into each lease's folder; other files are fetched for each lease.
+fn place_program(
+    client: &Client,
+    tools: &Path,
+    digest: &Digest,
+    path: &Path,
+) -> Result<(), LeaseError> {
+    let sha256 = digest.hash.len() == 64
+        && digest
+            .hash
+            .bytes()
+            .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b));
+    if !sha256 || digest.size_bytes < 0 {
+        return Err(LeaseError::invalid(format!(
+            "`{}`: not a sha256 digest",
+            digest.hash
+        )));
+    }
+    let kept = tools.join(format!("{}-{}", digest.hash, digest.size_bytes));
+    if !kept.is_file() {
+        std::fs::create_dir_all(tools).map_err(|e| format!("{}: {e}", tools.display()))?;
+        let bytes = client
+            .download(digest, MAX_BLOB_BYTES)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        let partial = tools.join(format!("{}.partial", digest.hash));
+        std::fs::write(&partial, bytes).map_err(|e| format!("{}: {e}", partial.display()))?;
+        set_mode(&partial, 0o555)?;
+        std::fs::rename(&partial, &kept).map_err(|e| format!("{}: {e}", kept.display()))?;
+        forget_old_programs(tools, &kept);
+    }
+    if std::fs::hard_link(&kept, path).is_err() {
+        std::fs::copy(&kept, path).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Remove all but the newest [`KEPT_PROGRAMS`] programs of `tools` (never `keep`).
+fn forget_old_programs(tools: &Path, keep: &Path) {
+    let Ok(entries) = std::fs::read_dir(tools) else {
+        return;
+    };
+    let mut programs: Vec<(std::time::SystemTime, PathBuf)> = entries
+        .filter_map(Result::ok)
+        .filter_map(|e| Some((e.metadata().ok()?.modified().ok()?, e.path())))
+        .filter(|(_, path)| path != keep)
+        .collect();
+    programs.sort();
+    let surplus = (programs.len() + 1).saturating_sub(KEPT_PROGRAMS);
+    for (_, path) in programs.into_iter().take(surplus) {
+        let _ = std::fs::remove_file(path);
+    }
+}
+
 /// Write `directory`'s files and folders under `dir`.
 fn lay_out(
     client: &Client,
+    tools: &Path,
     directory: &Directory,
     dir: &Path,
     depth: usize,
@@ -468,14 +551,15 @@ fn lay_out(
         let digest = file
             .digest
             .as_ref()
-            .ok_or_else(|| format!("{}: no digest", file.name))?;
+            .ok_or_else(|| LeaseError::invalid(format!("{}: no digest", file.name)))?;
+        if file.is_executable {
+            place_program(client, tools, digest, &path)?;
+            continue;
+        }
         let bytes = client
             .download(digest, MAX_BLOB_BYTES)
             .map_err(|e| format!("{}: {e}", file.name))?;
         std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-        if file.is_executable {
-            set_executable(&path)?;
-        }
     }
     for sub in &directory.directories {
         let path = dir.join(component(&sub.name).map_err(LeaseError::invalid)?);
@@ -489,7 +573,7 @@ fn lay_out(
             .map_err(|e| format!("{}: {e}", sub.name))?;
         let child = Directory::decode(bytes.as_slice())
             .map_err(|e| LeaseError::invalid(format!("{}: {e}", sub.name)))?;
-        lay_out(client, &child, &path, depth + 1, entries)?;
+        lay_out(client, tools, &child, &path, depth + 1, entries)?;
     }
     Ok(())
 }
@@ -574,14 +658,14 @@ fn is_executable(_meta: &std::fs::Metadata) -> bool {
 }
 
 #[cfg(unix)]
-fn set_executable(path: &Path) -> Result<(), String> {
+fn set_mode(path: &Path, mode: u32) -> Result<(), String> {
     use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755))
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 #[cfg(not(unix))]
-fn set_executable(_path: &Path) -> Result<(), String> {
+fn set_mode(_path: &Path, _mode: u32) -> Result<(), String> {
     Ok(())
 }
 
