@@ -38,8 +38,8 @@ pub struct RunOptions {
     /// memo itself, with the rules above.
     pub shared_sources: Option<Arc<SourceHasher>>,
     /// Where jobs that are actions run instead of here (remote execution); shared by the runs
-    /// of one build, so an executor that goes away is reported once. The run keeps up to its
-    /// `max_in_flight` jobs waiting on it, beside `threads`.
+    /// of one build, so an executor that goes away is reported once. The run adds its
+    /// `max_in_flight` threads to `threads`, for jobs waiting on it.
     pub execution: Option<Arc<RemoteExecution>>,
 }
 
@@ -122,7 +122,7 @@ pub fn run<'g>(
                 0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
                 n => n,
             };
-            here.max(remote.max_in_flight())
+            here + remote.max_in_flight()
         }
         None => options.threads,
     };

@@ -277,8 +277,8 @@ pub struct ExecutionConfig {
     pub instance_name: String,
     /// The environment variable holding a bearer token, if the farm wants one.
     pub token_env: Option<String>,
-    /// Seconds one job may take there, queue included, before it runs here instead; also the
-    /// limit of every other exchange with the farm.
+    /// Seconds one job may run there (its queue may add as much again before it runs here
+    /// instead); also the limit of every other exchange with the farm.
     pub timeout_s: f64,
     /// Jobs waiting on the farm at once.
     pub max_in_flight: usize,
@@ -301,9 +301,11 @@ impl ExecutionConfig {
         if let Some(url) = &self.remote {
             check_grpc_url(url).map_err(|why| format!("[execution] remote = {url:?}: {why}"))?;
         }
-        if !(self.timeout_s > 0.0 && self.timeout_s <= 86400.0) {
+        // BuildGrid refuses actions whose timeout is over its `max-execution-timeout`, 7200 s
+        // by default.
+        if !(self.timeout_s > 0.0 && self.timeout_s <= 7200.0) {
             return Err(format!(
-                "[execution] timeout_s = {}: expected more than 0 and at most 86400 seconds",
+                "[execution] timeout_s = {}: expected more than 0 and at most 7200 seconds",
                 self.timeout_s
             ));
         }

@@ -93,6 +93,14 @@ pub struct Client {
     uploads: AtomicU64,
 }
 
+/// The longest a connection may take to open.
+const CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+/// How often a quiet connection is checked, and how long the check may take.
+const KEEPALIVE: Duration = Duration::from_secs(10);
+/// What one entry of a batch call takes besides its bytes (its digest and framing).
+const ENTRY_OVERHEAD: u64 = 128;
+/// Digests asked about in one FindMissingBlobs call.
+const FIND_CHUNK: usize = 4096;
 /// What batch calls carry at most when the server states no cap (its capabilities say 0).
 const DEFAULT_BATCH_LIMIT: u64 = 4 << 20;
 /// The bytes of one ByteStream write or read message.
@@ -111,7 +119,12 @@ impl Client {
             .trim_end_matches('/');
         let endpoint = Endpoint::from_shared(format!("http://{address}"))
             .map_err(|e| Error::Failed(format!("{}: {e}", settings.url)))?
-            .connect_timeout(settings.timeout)
+            .connect_timeout(settings.timeout.min(CONNECT_TIMEOUT))
+            // A farm that stops answering (a dropped link, not a refused one) is found out in
+            // seconds, not at the end of a job's whole wait.
+            .http2_keep_alive_interval(KEEPALIVE)
+            .keep_alive_timeout(KEEPALIVE)
+            .keep_alive_while_idle(true)
             .tcp_nodelay(true);
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(2)
@@ -136,24 +149,23 @@ impl Client {
         &self.settings
     }
 
-    /// Run `work` within the request timeout.
+    /// Run `work` within the request timeout (a server that does not answer in time is
+    /// unavailable).
     pub(crate) fn call<T>(&self, work: impl Future<Output = Result<T, Error>>) -> Result<T, Error> {
         self.wait(self.settings.timeout, work)
+            .unwrap_or_else(|limit| Err(Error::Unavailable(format!("no answer within {limit} s"))))
     }
 
+    /// Run `work`; `Err` with the limit in seconds when it took longer.
     fn wait<T>(
         &self,
         limit: Duration,
         work: impl Future<Output = Result<T, Error>>,
-    ) -> Result<T, Error> {
+    ) -> Result<Result<T, Error>, f64> {
         let runtime = self.runtime.as_ref().expect("taken only on drop");
-        match runtime.block_on(async { tokio::time::timeout(limit, work).await }) {
-            Ok(result) => result,
-            Err(_) => Err(Error::Unavailable(format!(
-                "no answer within {} s",
-                limit.as_secs_f64()
-            ))),
-        }
+        runtime
+            .block_on(async { tokio::time::timeout(limit, work).await })
+            .map_err(|_| limit.as_secs_f64())
     }
 
     pub(crate) fn channel(&self) -> Channel {
@@ -213,9 +225,14 @@ impl Client {
 
     /// The digests of `digests` the server lacks.
     pub fn find_missing(&self, digests: &[Digest]) -> Result<Vec<Digest>, Error> {
-        if digests.is_empty() {
-            return Ok(Vec::new());
+        let mut missing = Vec::new();
+        for chunk in digests.chunks(FIND_CHUNK) {
+            missing.extend(self.find_missing_few(chunk)?);
         }
+        Ok(missing)
+    }
+
+    fn find_missing_few(&self, digests: &[Digest]) -> Result<Vec<Digest>, Error> {
         self.call(async {
             let mut client = ContentAddressableStorageClient::new(self.channel.clone());
             let request = self.request(FindMissingBlobsRequest {
@@ -255,11 +272,12 @@ impl Client {
         let mut batch = Vec::new();
         let mut batch_bytes = 0u64;
         for blob in small {
-            if batch_bytes + blob.1.len() as u64 > limit {
+            let size = blob.1.len() as u64 + ENTRY_OVERHEAD;
+            if batch_bytes + size > limit {
                 self.batch_upload(&std::mem::take(&mut batch))?;
                 batch_bytes = 0;
             }
-            batch_bytes += blob.1.len() as u64;
+            batch_bytes += size;
             batch.push(blob);
         }
         self.batch_upload(&batch)
@@ -397,7 +415,7 @@ impl Client {
                 read_limit: 0,
             });
             let mut stream = client.read(request).await?.into_inner();
-            let mut bytes = Vec::with_capacity(size as usize);
+            let mut bytes = Vec::with_capacity(size.min(64 << 20) as usize);
             while let Some(message) = stream.message().await? {
                 if (bytes.len() + message.data.len()) as u64 > size {
                     return Err(Error::Failed(format!(
@@ -432,9 +450,10 @@ impl Client {
     }
 
     /// Execute `action` (its command, input root and platform already stored) and wait up to
-    /// `limit` for its response; a dropped stream is resumed with `WaitExecution`.
+    /// `limit` for its response (longer is a failure of this action, not of the server); a
+    /// dropped stream is resumed with `WaitExecution`.
     pub fn execute(&self, action: &Digest, limit: Duration) -> Result<ExecuteResponse, Error> {
-        self.wait(limit, async {
+        let waited = self.wait(limit, async {
             let mut client = ExecutionClient::new(self.channel.clone());
             let request = self.request(ExecuteRequest {
                 instance_name: self.instance(),
@@ -459,6 +478,8 @@ impl Client {
                     }
                     // The stream ended or broke before the operation finished: wait on it by name.
                     Ok(None) | Err(_) if !name.is_empty() => {
+                        // Not at once: a server that ends every stream is not asked in a loop.
+                        tokio::time::sleep(Duration::from_millis(200)).await;
                         let request = self.request(WaitExecutionRequest { name: name.clone() });
                         stream = client.wait_execution(request).await?.into_inner();
                     }
@@ -471,7 +492,8 @@ impl Client {
                     Err(status) => return Err(status.into()),
                 }
             }
-        })
+        });
+        waited.unwrap_or_else(|limit| Err(Error::Failed(format!("no result within {limit} s"))))
     }
 
     /// Blobs uploaded so far.

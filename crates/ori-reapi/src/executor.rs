@@ -4,13 +4,13 @@
 //! action cache answers any builder that asks for the same job with the same tool.
 
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use bazel_remote_apis::build::bazel::remote::execution::v2::{
     Action, ActionResult, Command, Digest, Directory, DirectoryNode, ExecutedActionMetadata,
-    FileNode, Tree,
+    FileNode, Platform, Tree, platform,
 };
 use ori_graph::{
     ActionJob, ActionLeft, ActionOutputs, ContentHash, ExecuteError, Executor, ExecutorTimes,
@@ -56,6 +56,7 @@ pub struct ReapiExecutor {
     /// Whether the farm has the tool: the first job uploads it while the others wait, so
     /// jobs started together do not each send it.
     tool_stored: std::sync::Mutex<bool>,
+    gone: AtomicBool,
     /// Nanoseconds spent moving blobs, waiting on `Execute`, and running (workers' figures).
     transfer: AtomicU64,
     waiting: AtomicU64,
@@ -82,6 +83,7 @@ impl ReapiExecutor {
         Ok(ReapiExecutor {
             client,
             tool_stored: std::sync::Mutex::new(false),
+            gone: AtomicBool::new(false),
             transfer: AtomicU64::new(0),
             waiting: AtomicU64::new(0),
             running: AtomicU64::new(0),
@@ -89,6 +91,17 @@ impl ReapiExecutor {
             max_in_flight,
             action_timeout,
         })
+    }
+
+    /// Stop here once the farm was found unavailable: jobs already under way do not each
+    /// wait out their own timeout.
+    fn check_available(&self) -> Result<(), Error> {
+        match self.gone.load(Ordering::Relaxed) {
+            true => Err(Error::Unavailable(
+                "unavailable earlier in this build".into(),
+            )),
+            false => Ok(()),
+        }
     }
 
     fn tool(&self) -> Result<&Tool, ExecuteError> {
@@ -129,7 +142,18 @@ impl ReapiExecutor {
         let root = tree.root.unwrap_or_default();
         let mut outputs = BTreeMap::new();
         let mut left = None;
+        if !root.directories.is_empty() || !root.symlinks.is_empty() {
+            return Err(Error::Failed(format!(
+                "the `{OUTPUTS_DIR}` folder holds more than files"
+            )));
+        }
         for file in &root.files {
+            if file.name != LEFT_FILE && !ActionJob::is_output_name(&file.name) {
+                return Err(Error::Failed(format!(
+                    "the result has an output named `{}`",
+                    file.name
+                )));
+            }
             let digest = file
                 .digest
                 .as_ref()
@@ -214,6 +238,7 @@ pub fn build_action(
     };
     let (command_digest, command_bytes) = blob(&command);
     let action = Action {
+        platform: Some(platform()),
         command_digest: Some(command_digest.clone()),
         input_root_digest: Some(root_digest.clone()),
         timeout: Some(bazel_remote_apis::google::protobuf::Duration {
@@ -231,6 +256,22 @@ pub fn build_action(
             (root_digest, root_bytes),
             (command_digest, command_bytes),
             (action_digest.clone(), action_bytes),
+        ],
+    }
+}
+
+/// Where the tool runs: the operating system and processor it was built for, which workers
+/// advertise as the same properties (`OSFamily`, `ISA`: the keys BuildGrid matches by
+/// default), so a job never goes to a machine that cannot run it.
+pub fn platform() -> Platform {
+    let property = |name: &str, value: &str| platform::Property {
+        name: name.to_string(),
+        value: value.to_string(),
+    };
+    Platform {
+        properties: vec![
+            property("ISA", std::env::consts::ARCH),
+            property("OSFamily", std::env::consts::OS),
         ],
     }
 }
@@ -259,14 +300,17 @@ impl Executor for ReapiExecutor {
             input_blobs.push((digest, bytes));
         }
         let action = build_action(job, &inputs, &tool.digest, self.action_timeout);
-        let mut blobs: Vec<(Digest, &[u8])> = Vec::new();
+        // The tool again (asked about, not sent): a farm that dropped it gets it back.
+        let mut blobs: Vec<(Digest, &[u8])> = vec![(tool.digest.clone(), &tool.bytes)];
         for (digest, bytes) in input_blobs.iter().chain(&action.blobs) {
             blobs.push((digest.clone(), bytes));
         }
         let run = || -> Result<ActionOutputs, Error> {
+            self.check_available()?;
             let started = Instant::now();
             {
                 let mut stored = self.tool_stored.lock().unwrap_or_else(|e| e.into_inner());
+                self.check_available()?;
                 if !*stored {
                     self.client
                         .upload_missing(&[(tool.digest.clone(), &tool.bytes)])?;
@@ -299,7 +343,10 @@ impl Executor for ReapiExecutor {
             outputs
         };
         run().map_err(|e| match e {
-            Error::Unavailable(why) => ExecuteError::Unavailable(why),
+            Error::Unavailable(why) => {
+                self.gone.store(true, Ordering::Relaxed);
+                ExecuteError::Unavailable(why)
+            }
             Error::Failed(why) => ExecuteError::Failed(why),
         })
     }

@@ -30,6 +30,8 @@ const RESULT_TYPE: &str = "type.googleapis.com/build.bazel.remote.execution.v2.A
 
 /// The most bytes of one input blob fetched (the tool, a mesh).
 const MAX_BLOB_BYTES: u64 = 1 << 32;
+/// The most bytes of an action, command or folder listing.
+const MAX_MESSAGE_BYTES: u64 = 16 << 20;
 /// The most entries (files and folders) of one input root.
 const MAX_ENTRIES: usize = 1 << 20;
 /// The deepest folder of an input root.
@@ -105,6 +107,8 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
     let mut running: Option<Running> = None;
     let mut serial = 0u64;
     while !stop.load(Ordering::Relaxed) {
+        // What was sent, to send again when the server did not answer.
+        let mut sent = None;
         let answer = match session.take() {
             None => create_session(&client, &options.bot_id).inspect(|created| {
                 log(&format!(
@@ -134,6 +138,7 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
                     }
                 }
                 current.status = BotStatus::Ok as i32;
+                sent = Some(current.clone());
                 update_session(&client, current)
             }
         };
@@ -142,6 +147,7 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
             Err(Error::Failed(e)) => {
                 // The server forgot the session (restarted, or timed it out): start anew.
                 log(&format!("bot session refused: {e}; opening a new one"));
+                std::thread::sleep(Duration::from_secs(1));
                 continue;
             }
             Err(Error::Unavailable(e)) => {
@@ -150,6 +156,8 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
                     options.server.url
                 ));
                 std::thread::sleep(Duration::from_secs(1));
+                // The same update again (a finished lease's result is in it).
+                session = sent;
                 continue;
             }
         };
@@ -162,7 +170,8 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
             let active = lease.state == LeaseState::Active as i32;
             if active && running.is_none() {
                 serial += 1;
-                let dir = options.work_dir.join(format!("lease-{serial}"));
+                // Named by process too: workers may share a folder.
+                let dir = (options.work_dir).join(format!("lease-{}-{serial}", std::process::id()));
                 let tools = options.work_dir.join("programs");
                 running = Some(start(
                     lease.clone(),
@@ -182,8 +191,8 @@ pub fn run(options: &WorkerOptions, stop: &AtomicBool, log: &dyn Fn(&str)) -> Re
     Ok(())
 }
 
-/// The bot as the server sees it: one device, no platform properties (the pipeline's actions
-/// ask for none), one lease at a time.
+/// The bot as the server sees it: one device with this machine's platform (the properties
+/// the pipeline's actions ask for), one lease at a time.
 fn bot_session(bot_id: &str) -> BotSession {
     BotSession {
         bot_id: bot_id.to_string(),
@@ -191,7 +200,14 @@ fn bot_session(bot_id: &str) -> BotSession {
         worker: Some(Worker {
             devices: vec![Device {
                 handle: bot_id.to_string(),
-                properties: Vec::new(),
+                properties: crate::executor::platform()
+                    .properties
+                    .into_iter()
+                    .map(|p| Property {
+                        key: p.name,
+                        value: p.value,
+                    })
+                    .collect(),
             }],
             properties: Vec::new(),
             configs: vec![Property {
@@ -301,7 +317,7 @@ fn execute(
         DIGEST_TYPE => {
             let digest = Digest::decode(payload.value.as_slice()).map_err(LeaseError::invalid)?;
             let bytes = client
-                .download(&digest, MAX_BLOB_BYTES)
+                .download(&digest, MAX_MESSAGE_BYTES)
                 .map_err(|e| e.to_string())?;
             Action::decode(bytes.as_slice()).map_err(LeaseError::invalid)?
         }
@@ -316,7 +332,7 @@ fn execute(
             .as_ref()
             .ok_or_else(|| format!("the action has no {what}"))?;
         client
-            .download(digest, MAX_BLOB_BYTES)
+            .download(digest, MAX_MESSAGE_BYTES)
             .map_err(|e| format!("{what}: {e}"))
     };
     let command = Command::decode(fetch(&action.command_digest, "command")?.as_slice())
@@ -351,7 +367,9 @@ fn execute(
     let stderr_path = dir.join("stderr");
     let file =
         |path: &Path| std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()));
-    let mut child = std::process::Command::new(&program)
+    let mut run = std::process::Command::new(&program);
+    // The action's environment is its own: nothing of the worker's (its token) leaks in.
+    run.env_clear()
         .args(&command.arguments[1..])
         .envs(
             command
@@ -362,16 +380,20 @@ fn execute(
         .current_dir(&workdir)
         .stdin(Stdio::null())
         .stdout(file(&stdout_path)?)
-        .stderr(file(&stderr_path)?)
-        .spawn()
-        .map_err(|e| format!("{}: cannot start: {e}", program.display()))?;
+        .stderr(file(&stderr_path)?);
+    own_process_group(&mut run);
+    let mut child = run.spawn().map_err(|e| {
+        LeaseError::fatal(
+            tonic::Code::FailedPrecondition,
+            format!("{}: cannot start here: {e}", program.display()),
+        )
+    })?;
     let status = loop {
         if let Some(status) = child.try_wait().map_err(|e| e.to_string())? {
             break status;
         }
         if cancel.load(Ordering::Relaxed) || started.elapsed() > timeout {
-            let _ = child.kill();
-            let _ = child.wait();
+            kill_group(&mut child);
             return Err(LeaseError::fatal(
                 tonic::Code::DeadlineExceeded,
                 format!("stopped after {} s", started.elapsed().as_secs()),
@@ -468,7 +490,7 @@ const KEPT_PROGRAMS: usize = 4;
 
 /// Put the program of digest `digest` at `path`. Programs (the tool a build's actions run,
 /// the same in all of them) are kept between leases in `tools`, read-only, the last few, and
-/// linked into each lease's folder; other files are fetched for each lease.
+/// copied into each lease's folder; other files are fetched for each lease.
 fn place_program(
     client: &Client,
     tools: &Path,
@@ -492,15 +514,15 @@ fn place_program(
         let bytes = client
             .download(digest, MAX_BLOB_BYTES)
             .map_err(|e| format!("{}: {e}", path.display()))?;
-        let partial = tools.join(format!("{}.partial", digest.hash));
+        let partial = tools.join(format!("{}.{}.partial", digest.hash, std::process::id()));
         std::fs::write(&partial, bytes).map_err(|e| format!("{}: {e}", partial.display()))?;
         set_mode(&partial, 0o555)?;
         std::fs::rename(&partial, &kept).map_err(|e| format!("{}: {e}", kept.display()))?;
         forget_old_programs(tools, &kept);
     }
-    if std::fs::hard_link(&kept, path).is_err() {
-        std::fs::copy(&kept, path).map_err(|e| format!("{}: {e}", path.display()))?;
-    }
+    // A copy, so that an action cannot change the kept program through its own file.
+    std::fs::copy(&kept, path).map_err(|e| format!("{}: {e}", path.display()))?;
+    set_mode(path, 0o755)?;
     Ok(())
 }
 
@@ -552,6 +574,12 @@ fn lay_out(
             .digest
             .as_ref()
             .ok_or_else(|| LeaseError::invalid(format!("{}: no digest", file.name)))?;
+        if path.exists() {
+            return Err(LeaseError::invalid(format!(
+                "`{}` is named twice",
+                file.name
+            )));
+        }
         if file.is_executable {
             place_program(client, tools, digest, &path)?;
             continue;
@@ -563,13 +591,19 @@ fn lay_out(
     }
     for sub in &directory.directories {
         let path = dir.join(component(&sub.name).map_err(LeaseError::invalid)?);
+        if path.exists() {
+            return Err(LeaseError::invalid(format!(
+                "`{}` is named twice",
+                sub.name
+            )));
+        }
         std::fs::create_dir(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let digest = sub
             .digest
             .as_ref()
             .ok_or_else(|| format!("{}: no digest", sub.name))?;
         let bytes = client
-            .download(digest, MAX_BLOB_BYTES)
+            .download(digest, MAX_MESSAGE_BYTES)
             .map_err(|e| format!("{}: {e}", sub.name))?;
         let child = Directory::decode(bytes.as_slice())
             .map_err(|e| LeaseError::invalid(format!("{}: {e}", sub.name)))?;
@@ -644,6 +678,29 @@ fn tree_of(
         }
     }
     Ok((directory, children))
+}
+
+/// Start the command in a process group of its own, so that what it starts is stopped with it.
+#[cfg(unix)]
+fn own_process_group(command: &mut std::process::Command) {
+    use std::os::unix::process::CommandExt;
+    command.process_group(0);
+}
+
+#[cfg(not(unix))]
+fn own_process_group(_command: &mut std::process::Command) {}
+
+/// Kill the command and everything in its process group, and reap it.
+fn kill_group(child: &mut std::process::Child) {
+    #[cfg(unix)]
+    if let Ok(pid) = i32::try_from(child.id()) {
+        // SAFETY: kill(2) with a negative pid signals that process group; no memory is touched.
+        unsafe {
+            libc::kill(-pid, libc::SIGKILL);
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 #[cfg(unix)]
