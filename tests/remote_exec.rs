@@ -51,14 +51,9 @@ fn build(p: &Project, name: &str, farm: Option<&BuildGrid>) -> Output {
     build_command(p, name, farm).output().unwrap()
 }
 
-/// The `remote` column of the summary line for `stage`.
+/// The `remote` column of the summary line for `stage` (after `ran`).
 fn remote(out: &Output, stage: &str) -> usize {
-    let t = text(out);
-    t.lines()
-        .find(|l| l.split_whitespace().next() == Some(stage))
-        .and_then(|l| l.split_whitespace().nth(2))
-        .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
+    summary_column(out, stage, 2)
 }
 
 /// Wait for a build, calling `on_line` with each line it prints as it prints it; its output,

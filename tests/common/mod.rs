@@ -106,10 +106,15 @@ pub fn text(out: &Output) -> String {
 
 /// The `ran` column of the summary line for `stage`.
 pub fn ran(out: &Output, stage: &str) -> usize {
+    summary_column(out, stage, 1)
+}
+
+/// Column `column` (0 is the stage's name) of the summary line for `stage`.
+pub fn summary_column(out: &Output, stage: &str, column: usize) -> usize {
     let t = text(out);
     t.lines()
         .find(|l| l.split_whitespace().next() == Some(stage))
-        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|l| l.split_whitespace().nth(column))
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no summary line for {stage}:\n{t}"))
 }

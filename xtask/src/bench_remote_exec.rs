@@ -14,11 +14,18 @@ use crate::buildgrid::BuildGrid;
 /// asset (what a static split cannot foresee).
 const CONFIG: &str = "[assets]\nroot = \"assets\"\n[select]\ns0 = 64\nregion_steps = 2\n";
 
-fn command(config: &Path, cache: &Path, out: &Path, extra: &[&str]) -> Result<Command, String> {
+/// `build-assets` (or `assemble`, `which`) of the project, quiet, its output captured.
+fn command(
+    which: &str,
+    config: &Path,
+    cache: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> Result<Command, String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
     let mut command = Command::new(exe);
     command
-        .args(["build-assets", "--quiet", "--no-report", "--config"])
+        .args([which, "--quiet", "--no-report", "--config"])
         .arg(config)
         .arg("--cache")
         .arg(cache)
@@ -78,7 +85,13 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
     let release = |out: &str| std::fs::read(p(out).join("release.json")).map_err(|e| e.to_string());
 
     let (alone, _) = timed(
-        command(&config, &p("cache-alone"), &p("out-alone"), &[])?,
+        command(
+            "build-assets",
+            &config,
+            &p("cache-alone"),
+            &p("out-alone"),
+            &[],
+        )?,
         "build",
     )?;
     println!(
@@ -107,6 +120,7 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
         let (name_cache, name_out) = (format!("cache-farm{n}"), format!("out-farm{n}"));
         let (wall, text) = timed(
             command(
+                "build-assets",
                 &config,
                 &p(&name_cache),
                 &p(&name_out),
@@ -126,7 +140,13 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
         let mut parts: Vec<(Option<f64>, Child)> = (1..=n)
             .map(|k| {
                 let shard = format!("{k}/{n}");
-                let mut c = command(&config, &cache, &p("out-unused"), &["--shard", &shard])?;
+                let mut c = command(
+                    "build-assets",
+                    &config,
+                    &cache,
+                    &p("out-unused"),
+                    &["--shard", &shard],
+                )?;
                 c.spawn()
                     .map(|child| (None, child))
                     .map_err(|e| e.to_string())
@@ -147,19 +167,14 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
             finish(child, &format!("shard {}/{n}", k + 1))?;
             part_times.push(done.unwrap_or_default());
         }
-        let exe_assemble = {
-            let mut c = Command::new(&exe);
-            c.args(["assemble", "--quiet", "--no-report", "--config"])
-                .arg(&config)
-                .arg("--cache")
-                .arg(&cache)
-                .arg("--out")
-                .arg(p(&format!("out-shards{n}")))
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped());
-            c
-        };
-        let (assembled, _) = timed(exe_assemble, "assemble")?;
+        let assemble = command(
+            "assemble",
+            &config,
+            &cache,
+            &p(&format!("out-shards{n}")),
+            &[],
+        )?;
+        let (assembled, _) = timed(assemble, "assemble")?;
         if release(&format!("out-shards{n}"))? != release("out-alone")? {
             return Err(format!("the release assembled from {n} shards differs"));
         }

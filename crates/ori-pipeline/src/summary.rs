@@ -93,14 +93,15 @@ pub struct ExecutionSummary {
 
 impl ExecutionSummary {
     pub(crate) fn of(execution: &RemoteExecution) -> ExecutionSummary {
+        let times = execution.times();
         ExecutionSummary {
             url: execution.describe(),
             executed: execution.executed(),
             fell_back: execution.fell_back(),
             unavailable: execution.is_gone(),
-            transfer_seconds: execution.times().transfer.as_secs_f64(),
-            waiting_seconds: execution.times().waiting.as_secs_f64(),
-            running_seconds: execution.times().running.as_secs_f64(),
+            transfer_seconds: times.transfer.as_secs_f64(),
+            waiting_seconds: times.waiting.as_secs_f64(),
+            running_seconds: times.running.as_secs_f64(),
         }
     }
 }

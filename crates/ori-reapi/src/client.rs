@@ -90,7 +90,6 @@ pub struct Client {
     settings: Settings,
     /// The server's cap on one batch call, learnt from its capabilities.
     batch_limit: AtomicU64,
-    uploads: AtomicU64,
 }
 
 /// The longest a connection may take to open.
@@ -141,7 +140,6 @@ impl Client {
             channel,
             settings,
             batch_limit: AtomicU64::new(0),
-            uploads: AtomicU64::new(0),
         })
     }
 
@@ -312,8 +310,6 @@ impl Client {
                 )));
             }
         }
-        self.uploads
-            .fetch_add(blobs.len() as u64, Ordering::Relaxed);
         Ok(())
     }
 
@@ -352,7 +348,6 @@ impl Client {
                 digest.hash, digest.size_bytes
             )));
         }
-        self.uploads.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
 
@@ -494,11 +489,6 @@ impl Client {
             }
         });
         waited.unwrap_or_else(|limit| Err(Error::Failed(format!("no result within {limit} s"))))
-    }
-
-    /// Blobs uploaded so far.
-    pub fn uploads(&self) -> u64 {
-        self.uploads.load(Ordering::Relaxed)
     }
 }
 

@@ -4,8 +4,8 @@
 //! action cache answers any builder that asks for the same job with the same tool.
 
 use std::collections::BTreeMap;
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 use bazel_remote_apis::build::bazel::remote::execution::v2::{
@@ -61,7 +61,7 @@ pub struct ReapiExecutor {
     transfer: AtomicU64,
     waiting: AtomicU64,
     running: AtomicU64,
-    tool: Arc<OnceLock<Result<Tool, String>>>,
+    tool: OnceLock<Result<Tool, String>>,
     max_in_flight: usize,
     action_timeout: Duration,
 }
@@ -87,7 +87,7 @@ impl ReapiExecutor {
             transfer: AtomicU64::new(0),
             waiting: AtomicU64::new(0),
             running: AtomicU64::new(0),
-            tool: Arc::new(cell),
+            tool: cell,
             max_in_flight,
             action_timeout,
         })

@@ -412,15 +412,8 @@ fn execute(
         blobs.push((digest.clone(), bytes));
         digest
     };
-    for (path, slot) in [(&stdout_path, 0), (&stderr_path, 1)] {
-        let bytes = std::fs::read(path).unwrap_or_default();
-        let digest = store(bytes);
-        if slot == 0 {
-            result.stdout_digest = Some(digest);
-        } else {
-            result.stderr_digest = Some(digest);
-        }
-    }
+    result.stdout_digest = Some(store(std::fs::read(&stdout_path).unwrap_or_default()));
+    result.stderr_digest = Some(store(std::fs::read(&stderr_path).unwrap_or_default()));
     #[allow(deprecated)]
     let paths: Vec<&String> = if command.output_paths.is_empty() {
         command
