@@ -65,7 +65,7 @@ pub struct BuildArgs {
     /// docs/EVENTS.md); what a person reads goes to standard error.
     #[arg(long, value_enum, default_value = "human")]
     pub message_format: MessageFormat,
-    /// Run the jobs that read no source file on this REAPI build farm (grpc://host:port;
+    /// Run the jobs that are not cached on this REAPI build farm (grpc://host:port;
     /// default: `[execution] remote`); a farm that goes away costs one warning and the rest
     /// builds here.
     #[arg(long, value_name = "URL")]

@@ -1,14 +1,19 @@
 //! A job as a self-contained action, for a worker that has none of the build's state (a
 //! remote-execution farm): its description ([`ActionJob`], the file [`JOB_FILE`]), its inputs
 //! as files named by content hash under [`INPUTS_DIR`], and [`run_action`], which runs the
-//! stage on them. A job that reads source files is not an action: it runs where they are.
+//! stage on them. A job's source file is sent like its other inputs, and so are the files
+//! the stage discovers it needs (a glTF's buffers and images): those it asks for that were
+//! not sent end the action with them in [`ActionLeft::wanted`], and the builder sends it
+//! again with them.
 
-use std::collections::BTreeMap;
+use std::cell::RefCell;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::cache::DiscoveredFile;
 use crate::hash::ContentHash;
 use crate::job::{Input, JobSpec};
 use crate::stage::{JobContext, JobInputs, Stage, StageError};
@@ -36,16 +41,33 @@ pub struct ActionJob {
     /// The inputs the stage only identifies by their hash (`Input::Hashed`): not sent.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub hashed: BTreeMap<String, ContentHash>,
+    /// Of the inputs, those that are source files: the file's name, which the stage sees as
+    /// its path (for its format and messages; never the builder's folders).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub sources: BTreeMap<String, String>,
+    /// Discovered files sent with the action, by their path relative to the source file's
+    /// folder: their content hash, or `None` for one that is not there.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub files: BTreeMap<String, Option<ContentHash>>,
+    /// The build's settings the stages are made with (the loader's limits): they decide
+    /// whether a job can run, never what it makes, so they are in no key.
+    #[serde(default, skip_serializing_if = "serde_json::Value::is_null")]
+    pub settings: serde_json::Value,
 }
 
 impl ActionJob {
-    /// The action of `job` whose inputs have `hashes` (in the job's order), or `None` when the
-    /// job reads a source file (it may also discover others next to it).
+    /// The action of `job` whose inputs have `hashes` (in the job's order), with no
+    /// discovered files yet; `None` for a source file with no file name.
     pub fn of(job: &JobSpec, hashes: &[(String, ContentHash)]) -> Option<ActionJob> {
-        let (mut inputs, mut hashed) = (BTreeMap::new(), BTreeMap::new());
+        let (mut inputs, mut hashed, mut sources) =
+            (BTreeMap::new(), BTreeMap::new(), BTreeMap::new());
         for ((name, input), (_, hash)) in job.inputs.iter().zip(hashes) {
             match input {
-                Input::Source(_) => return None,
+                Input::Source(path) => {
+                    let file = path.file_name()?.to_str()?;
+                    sources.insert(name.clone(), file.to_string());
+                    inputs.insert(name.clone(), *hash)
+                }
                 Input::Hashed(_) => hashed.insert(name.clone(), *hash),
                 Input::Output { .. } => inputs.insert(name.clone(), *hash),
             };
@@ -57,7 +79,16 @@ impl ActionJob {
             params: job.params.clone(),
             inputs,
             hashed,
+            sources,
+            files: BTreeMap::new(),
+            settings: serde_json::Value::Null,
         })
+    }
+
+    /// The blobs the action is sent with: its inputs and the discovered files there are.
+    pub fn blobs(&self) -> BTreeSet<ContentHash> {
+        let files = self.files.values().flatten();
+        self.inputs.values().chain(files).copied().collect()
     }
 
     /// The output names an output file may have: a stage's names, never a path.
@@ -75,6 +106,13 @@ impl ActionJob {
 #[serde(deny_unknown_fields)]
 pub struct ActionLeft {
     pub warnings: Vec<String>,
+    /// The files the stage discovered and read (see [`JobContext::read_discovered`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub discovered: Vec<DiscoveredFile>,
+    /// Discovered files the stage asked for that were not sent: the action must be sent
+    /// again with them, and nothing else it left is its result.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub wanted: Vec<String>,
 }
 
 /// What running an action gave.
@@ -100,10 +138,24 @@ pub fn run_action(
             stage.name()
         )));
     }
-    let inputs = ActionInputs { job, read };
-    let mut ctx = JobContext::new(&job.asset, &job.params, &inputs, None);
+    let inputs = ActionInputs {
+        job,
+        read,
+        wanted: RefCell::new(Vec::new()),
+    };
+    let mut ctx = JobContext::new(&job.asset, &job.params, &inputs);
     let ran = crate::stage::run_catching(stage, &mut ctx);
     let left = ctx.finish();
+    let wanted = inputs.wanted.into_inner();
+    if !wanted.is_empty() {
+        return Ok(ActionOutputs {
+            outputs: BTreeMap::new(),
+            left: ActionLeft {
+                wanted,
+                ..ActionLeft::default()
+            },
+        });
+    }
     ran?;
     if let Some(name) = left.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
         return Err(StageError::Plan(format!(
@@ -115,6 +167,8 @@ pub fn run_action(
         outputs: left.outputs,
         left: ActionLeft {
             warnings: left.warnings,
+            discovered: left.discovered,
+            wanted: Vec::new(),
         },
     })
 }
@@ -122,11 +176,13 @@ pub fn run_action(
 struct ActionInputs<'a> {
     job: &'a ActionJob,
     read: &'a dyn Fn(&ContentHash) -> io::Result<Vec<u8>>,
+    /// Discovered files asked for but not sent.
+    wanted: RefCell<Vec<String>>,
 }
 
 impl JobInputs for ActionInputs<'_> {
-    fn source_path(&self, _name: &str) -> Option<&Path> {
-        None
+    fn source_path(&self, name: &str) -> Option<&Path> {
+        self.job.sources.get(name).map(Path::new)
     }
 
     fn input_hash(&self, name: &str) -> Option<ContentHash> {
@@ -160,11 +216,32 @@ impl JobInputs for ActionInputs<'_> {
         Ok(bytes)
     }
 
-    fn read_file(&self, path: &Path) -> io::Result<Vec<u8>> {
-        Err(io::Error::new(
-            io::ErrorKind::Unsupported,
-            format!("{}: an action reads no source files", path.display()),
-        ))
+    fn read_discovered(&self, relative: &str) -> io::Result<Vec<u8>> {
+        match self.job.files.get(relative) {
+            Some(Some(hash)) => {
+                let bytes = (self.read)(hash)?;
+                if ContentHash::of(&bytes) != *hash {
+                    return Err(io::Error::other(format!(
+                        "{relative}: its bytes do not match its hash {}",
+                        hash.short()
+                    )));
+                }
+                Ok(bytes)
+            }
+            Some(None) => Err(io::Error::new(
+                io::ErrorKind::NotFound,
+                format!("{relative}: not found"),
+            )),
+            None => {
+                let mut wanted = self.wanted.borrow_mut();
+                if !wanted.iter().any(|w| w == relative) {
+                    wanted.push(relative.to_string());
+                }
+                Err(io::Error::other(format!(
+                    "{relative}: not sent with the action"
+                )))
+            }
+        }
     }
 }
 
@@ -188,6 +265,13 @@ mod tests {
             }
             let mut x = ctx.input("x")?;
             x.extend_from_within(..);
+            if let Some(include) = ctx.params()["include"].as_str().map(str::to_string) {
+                match ctx.read_discovered(&include) {
+                    Ok(extra) => x.extend(extra),
+                    Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+                    Err(e) => return Err(StageError::asset(e)),
+                }
+            }
             ctx.output("y", x);
             ctx.warn("doubled");
             Ok(())
@@ -202,6 +286,9 @@ mod tests {
             params,
             inputs: BTreeMap::from([("x".to_string(), ContentHash::of(bytes))]),
             hashed: BTreeMap::new(),
+            sources: BTreeMap::new(),
+            files: BTreeMap::new(),
+            settings: serde_json::Value::Null,
         }
     }
 
@@ -228,6 +315,48 @@ mod tests {
         assert!(
             matches!(&panicked, StageError::Panic { what, .. } if what == "asked to"),
             "{panicked}"
+        );
+    }
+
+    #[test]
+    fn files_a_stage_discovers_are_asked_for_then_read_from_what_was_sent() {
+        let mut job = job(b"ab", serde_json::json!({"include": "../inc.txt"}));
+        let read = |hash: &ContentHash| match *hash == ContentHash::of(b"++") {
+            true => Ok(b"++".to_vec()),
+            false => Ok(b"ab".to_vec()),
+        };
+        // Not sent: asked for, and nothing else is a result.
+        let asked = run_action(&Double, &job, &read).unwrap();
+        assert!(asked.outputs.is_empty());
+        assert_eq!(asked.left.wanted, ["../inc.txt"]);
+        assert!(asked.left.warnings.is_empty());
+
+        // Sent: read, checked and recorded.
+        let hash = ContentHash::of(b"++");
+        job.files.insert("../inc.txt".into(), Some(hash));
+        assert_eq!(job.blobs().len(), 2);
+        let done = run_action(&Double, &job, &read).unwrap();
+        assert_eq!(done.outputs["y"], b"abab++");
+        assert!(done.left.wanted.is_empty());
+        let read_as = |path: &str, hash| DiscoveredFile {
+            path: path.into(),
+            hash,
+        };
+        assert_eq!(done.left.discovered, [read_as("../inc.txt", Some(hash))]);
+
+        // Said to be absent: not found, and recorded as such.
+        job.files.insert("../inc.txt".into(), None);
+        let done = run_action(&Double, &job, &read).unwrap();
+        assert_eq!(done.outputs["y"], b"abab");
+        assert_eq!(done.left.discovered, [read_as("../inc.txt", None)]);
+
+        // Sent with other bytes than its hash names: the stage sees an error.
+        job.files
+            .insert("../inc.txt".into(), Some(ContentHash::of(b"--")));
+        let wrong = run_action(&Double, &job, &read).unwrap_err();
+        assert!(
+            wrong.to_string().contains("do not match its hash"),
+            "{wrong}"
         );
     }
 

@@ -54,6 +54,8 @@ pub trait Executor: Send + Sync {
 /// An executor shared by the runs of a build.
 pub struct RemoteExecution {
     executor: Box<dyn Executor>,
+    /// Sent with every action ([`ActionJob::settings`]).
+    settings: serde_json::Value,
     /// Why it stopped being asked, once it did.
     gone: OnceLock<String>,
     executed: AtomicU64,
@@ -70,9 +72,11 @@ impl std::fmt::Debug for RemoteExecution {
 }
 
 impl RemoteExecution {
-    pub fn new(executor: Box<dyn Executor>) -> RemoteExecution {
+    /// An executor whose actions carry `settings` (see [`ActionJob::settings`]).
+    pub fn new(executor: Box<dyn Executor>, settings: serde_json::Value) -> RemoteExecution {
         RemoteExecution {
             executor,
+            settings,
             gone: OnceLock::new(),
             executed: AtomicU64::new(0),
             fell_back: AtomicU64::new(0),
@@ -107,7 +111,13 @@ impl RemoteExecution {
         self.gone.get().is_some()
     }
 
-    /// The outputs of `job` run by the executor, or `None` when it must run here.
+    pub(crate) fn settings(&self) -> &serde_json::Value {
+        &self.settings
+    }
+
+    /// The outputs of `job` run by the executor, or `None` when it must run here. Outputs
+    /// whose [`ActionLeft::wanted`](crate::ActionLeft) names files are not a result: the
+    /// caller sends the job again with them.
     pub(crate) fn try_execute(
         &self,
         job: &ActionJob,
@@ -118,13 +128,24 @@ impl RemoteExecution {
             return None;
         }
         let failed = match self.executor.execute(job, read) {
-            Ok(done) => match done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
-                None => {
-                    self.executed.fetch_add(1, Ordering::Relaxed);
-                    return Some(done);
+            Ok(done) if !done.left.wanted.is_empty() => return Some(done),
+            Ok(done) => {
+                let unsent = done
+                    .left
+                    .discovered
+                    .iter()
+                    .find(|f| job.files.get(&f.path) != Some(&f.hash));
+                match done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
+                    Some(name) => format!("it returned an output named `{name}`"),
+                    None => match unsent {
+                        Some(file) => format!("it read `{}`, which was not sent", file.path),
+                        None => {
+                            self.executed.fetch_add(1, Ordering::Relaxed);
+                            return Some(done);
+                        }
+                    },
                 }
-                Some(name) => format!("it returned an output named `{name}`"),
-            },
+            }
             Err(ExecuteError::Failed(why)) => why,
             Err(ExecuteError::Unavailable(why)) => {
                 self.fell_back.fetch_add(1, Ordering::Relaxed);
@@ -137,13 +158,18 @@ impl RemoteExecution {
                 return None;
             }
         };
+        self.decline(job, &failed, observer);
+        None
+    }
+
+    /// Count `job` as sent but run here, with a warning saying why.
+    pub(crate) fn decline(&self, job: &ActionJob, why: &str, observer: &dyn Observer) {
         self.fell_back.fetch_add(1, Ordering::Relaxed);
         observer.note(&format!(
-            "warning: {}: job `{}` did not run on {}: {failed}; it runs here",
+            "warning: {}: job `{}` did not run on {}: {why}; it runs here",
             job.asset,
             job.stage,
             self.describe()
         ));
-        None
     }
 }

@@ -1,13 +1,13 @@
 //! The scheduler: runs a [`Graph`] against a [`Cache`], in parallel, reusing what it can.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::io;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::action::ActionJob;
+use crate::action::{ActionJob, ActionOutputs};
 use crate::cache::{ActionEntry, Cache, JobRecord, ReadError};
 use crate::execute::RemoteExecution;
 use crate::hash::{ContentHash, canonical_json, job_key};
@@ -45,6 +45,11 @@ pub struct RunOptions {
 
 /// The most worker threads a run starts, whatever it is asked for.
 pub const MAX_THREADS: usize = 256;
+/// The most times a job is sent to the remote executor for the files its stage discovers
+/// (a model's buffers and images are usually asked for one at a time).
+const MAX_ACTION_ROUNDS: usize = 32;
+/// The most discovered files sent with one job.
+const MAX_ACTION_FILES: usize = 1024;
 
 /// Jobs run and reused, and time spent, for one stage.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -550,26 +555,15 @@ impl<'g> Exec<'g> {
             job,
             inputs,
         };
-        let remote = self.execution.as_ref().and_then(|remote| {
-            let action = ActionJob::of(job, inputs)?;
-            let read = |hash: &ContentHash| {
-                let (name, _) = inputs.iter().find(|(_, h)| h == hash).ok_or_else(|| {
-                    StageError::Plan(format!("no input has the hash {}", hash.short()))
-                })?;
-                reader.input(name)
-            };
-            remote.try_execute(&action, &read, self.observer)
-        });
+        let remote = self
+            .execution
+            .as_ref()
+            .and_then(|remote| self.run_remotely(remote, &reader, inputs));
         let ran_remotely = remote.is_some();
         let (made, discovered, warnings) = match remote {
-            Some(done) => (done.outputs, Vec::new(), done.left.warnings),
+            Some(done) => (done.outputs, done.left.discovered, done.left.warnings),
             None => {
-                let mut ctx = JobContext::new(
-                    &job.asset,
-                    &job.params,
-                    &reader,
-                    source_dir(job).map(Path::to_path_buf),
-                );
+                let mut ctx = JobContext::new(&job.asset, &job.params, &reader);
                 let ran = run_catching(job.stage.as_ref(), &mut ctx);
                 let left = ctx.finish();
                 ran?;
@@ -591,6 +585,59 @@ impl<'g> Exec<'g> {
             remote_names: BTreeMap::new(),
         };
         Ok((entry, ran_remotely))
+    }
+
+    /// A job's outputs made by the remote executor, which is sent the discovered files its
+    /// stage asks for (read here, under the run's source rules) until it has all it needs;
+    /// `None` when the job must run here.
+    fn run_remotely(
+        &self,
+        remote: &RemoteExecution,
+        reader: &JobReader<'_>,
+        inputs: &[(String, ContentHash)],
+    ) -> Option<ActionOutputs> {
+        let mut action = ActionJob::of(reader.job, inputs)?;
+        action.settings = remote.settings().clone();
+        let mut files: HashMap<ContentHash, Vec<u8>> = HashMap::new();
+        // The files its last run read are likely to be read again: they go with the first
+        // round (a rebuild after an edit then takes one).
+        let local = self.store.local();
+        let last = local
+            .read_record(&identity(reader.job))
+            .and_then(|record| local.read_action(&record.key).ok());
+        for file in last.map(|entry| entry.discovered).unwrap_or_default() {
+            if send_discovered(reader, &mut action, &mut files, file.path).is_err() {
+                break;
+            }
+        }
+        for _ in 0..MAX_ACTION_ROUNDS {
+            let read = |hash: &ContentHash| match files.get(hash) {
+                Some(bytes) => Ok(bytes.clone()),
+                None => {
+                    let (name, _) = inputs.iter().find(|(_, h)| h == hash).ok_or_else(|| {
+                        StageError::Plan(format!("no input has the hash {}", hash.short()))
+                    })?;
+                    reader.input(name)
+                }
+            };
+            let done = remote.try_execute(&action, &read, self.observer)?;
+            if done.left.wanted.is_empty() {
+                return Some(done);
+            }
+            for relative in done.left.wanted {
+                let sent = match action.files.contains_key(&relative) {
+                    true => Err(format!("it asked again for `{relative}`, which was sent")),
+                    false => send_discovered(reader, &mut action, &mut files, relative),
+                };
+                if let Err(why) = sent {
+                    remote.decline(&action, &why, self.observer);
+                    return None;
+                }
+            }
+        }
+        let why = format!("it still asked for files after {MAX_ACTION_ROUNDS} rounds");
+        remote.decline(&action, &why, self.observer);
+        None
     }
 
     fn read_output(&self, id: JobId, name: &str) -> Result<Vec<u8>, StageError> {
@@ -683,6 +730,31 @@ fn param_changes(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String
         .collect()
 }
 
+/// Read the discovered file `relative` here to send it with `action` (its bytes go in
+/// `files`), or say it is not there; the error says why it cannot be sent.
+fn send_discovered(
+    reader: &JobReader<'_>,
+    action: &mut ActionJob,
+    files: &mut HashMap<ContentHash, Vec<u8>>,
+    relative: String,
+) -> Result<(), String> {
+    if action.files.len() >= MAX_ACTION_FILES {
+        return Err(format!("it asked for more than {MAX_ACTION_FILES} files"));
+    }
+    match reader.read_discovered(&relative) {
+        Ok(bytes) => {
+            let hash = ContentHash::of(&bytes);
+            action.files.insert(relative, Some(hash));
+            files.insert(hash, bytes);
+        }
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            action.files.insert(relative, None);
+        }
+        Err(e) => return Err(format!("`{relative}` cannot be sent: {e}")),
+    }
+    Ok(())
+}
+
 /// A running job's view of the scheduler: its inputs by name.
 struct JobReader<'a> {
     exec: &'a Exec<'a>,
@@ -740,8 +812,11 @@ impl JobInputs for JobReader<'_> {
         }
     }
 
-    fn read_file(&self, path: &Path) -> io::Result<Vec<u8>> {
-        self.exec.sources.read(path)
+    fn read_discovered(&self, relative: &str) -> io::Result<Vec<u8>> {
+        let dir = source_dir(self.job).ok_or_else(|| {
+            io::Error::new(io::ErrorKind::NotFound, "this job has no source folder")
+        })?;
+        self.exec.sources.read(&dir.join(relative))
     }
 }
 

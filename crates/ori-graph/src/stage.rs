@@ -116,13 +116,14 @@ pub(crate) fn run_catching(stage: &dyn Stage, ctx: &mut JobContext<'_>) -> Resul
     }
 }
 
-/// Where a running job's inputs come from (the scheduler): reads verified against the hashes
-/// its key was computed from, and reads of discovered files under the run's source rules.
+/// Where a running job's inputs come from (the scheduler, or an action's folder): reads
+/// verified against the hashes its key was computed from, and reads of discovered files
+/// (relative to the folder of the job's source file) under the run's source rules.
 pub(crate) trait JobInputs {
     fn source_path(&self, name: &str) -> Option<&Path>;
     fn input_hash(&self, name: &str) -> Option<ContentHash>;
     fn input(&self, name: &str) -> Result<Vec<u8>, StageError>;
-    fn read_file(&self, path: &Path) -> io::Result<Vec<u8>>;
+    fn read_discovered(&self, relative: &str) -> io::Result<Vec<u8>>;
 }
 
 /// What a stage left when it finished: its outputs, the files it discovered, its warnings.
@@ -137,7 +138,6 @@ pub struct JobContext<'a> {
     asset: &'a str,
     params: &'a serde_json::Value,
     inputs: &'a dyn JobInputs,
-    source_dir: Option<PathBuf>,
     left: JobLeft,
 }
 
@@ -146,13 +146,11 @@ impl<'a> JobContext<'a> {
         asset: &'a str,
         params: &'a serde_json::Value,
         inputs: &'a dyn JobInputs,
-        source_dir: Option<PathBuf>,
     ) -> JobContext<'a> {
         JobContext {
             asset,
             params,
             inputs,
-            source_dir,
             left: JobLeft {
                 outputs: BTreeMap::new(),
                 discovered: Vec::new(),
@@ -196,10 +194,7 @@ impl<'a> JobContext<'a> {
     /// regular file, within the size limit; the error names the rule broken). The read is
     /// recorded: if the file later changes, appears or disappears, the job runs again.
     pub fn read_discovered(&mut self, relative: &str) -> io::Result<Vec<u8>> {
-        let dir = self.source_dir.as_ref().ok_or_else(|| {
-            io::Error::new(io::ErrorKind::NotFound, "this job has no source folder")
-        })?;
-        let result = self.inputs.read_file(&dir.join(relative));
+        let result = self.inputs.read_discovered(relative);
         let hash = match &result {
             Ok(bytes) => Some(ContentHash::of(bytes)),
             Err(e) if e.kind() == io::ErrorKind::NotFound => None,

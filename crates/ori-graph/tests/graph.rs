@@ -7,8 +7,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use ori_graph::{
-    Build, Cache, Graph, Input, JobContext, JobId, JobSpec, Outcome, RunOptions, RunReason, Silent,
-    Stage, StageError, run,
+    ActionJob, ActionOutputs, Build, Cache, ContentHash, ExecuteError, Executor, Graph, Input,
+    JobContext, JobId, JobSpec, Outcome, RemoteExecution, RunOptions, RunReason, Silent, Stage,
+    StageError, run, run_action,
 };
 use serde_json::{Value, json};
 
@@ -410,4 +411,92 @@ fn missing_source_fails_with_its_path() {
         }
         other => panic!("{other:?}"),
     }
+}
+
+/// A farm in this process: it copies an action's blobs, as a farm stores them, and runs the
+/// action on them. Counts the actions sent.
+struct InProcessFarm {
+    stages: Vec<Arc<dyn Stage>>,
+    sent: AtomicUsize,
+}
+
+impl Executor for InProcessFarm {
+    fn describe(&self) -> String {
+        "in-process farm".into()
+    }
+    fn max_in_flight(&self) -> usize {
+        2
+    }
+    fn execute(
+        &self,
+        job: &ActionJob,
+        read: &dyn Fn(&ContentHash) -> Result<Vec<u8>, StageError>,
+    ) -> Result<ActionOutputs, ExecuteError> {
+        self.sent.fetch_add(1, Ordering::SeqCst);
+        let mut stored = std::collections::HashMap::new();
+        for hash in job.blobs() {
+            let bytes = read(&hash).map_err(|e| ExecuteError::Failed(e.to_string()))?;
+            stored.insert(hash, bytes);
+        }
+        let stage = self.stages.iter().find(|s| s.name() == job.stage).unwrap();
+        let read = |hash: &ContentHash| {
+            stored
+                .get(hash)
+                .cloned()
+                .ok_or_else(|| std::io::Error::other("not sent"))
+        };
+        run_action(stage.as_ref(), job, &read).map_err(|e| ExecuteError::Failed(e.to_string()))
+    }
+}
+
+#[test]
+fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds() {
+    let fx = Fixture::new();
+    fs::write(fx.root.join("a/include.txt"), "+inc").unwrap();
+    let (graph, ids) = fx.graph(&defaults);
+    let farm = Arc::new(RemoteExecution::new(
+        Box::new(InProcessFarm {
+            stages: vec![fx.upper.clone(), fx.count.clone()],
+            sent: AtomicUsize::new(0),
+        }),
+        json!({"setting": 1}),
+    ));
+    let remote_build = |cache: &Cache| {
+        let options = RunOptions {
+            threads: 2,
+            execution: Some(farm.clone()),
+            ..RunOptions::default()
+        };
+        run(&graph, cache, &options, &Silent)
+    };
+    let b = remote_build(&fx.cache);
+    assert!(b.succeeded());
+    // Every job ran there (the farm runs the same stages, so their counts are the farm's):
+    // each `upper` twice, the second time sent `include.txt` or told it is not there.
+    assert_eq!(fx.runs(), (6, 3));
+    assert_eq!((farm.executed(), farm.fell_back()), (6, 0));
+    for (u, c) in &ids {
+        assert!(b.result(*u).ran_remotely && b.result(*c).ran_remotely);
+    }
+    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+inc");
+    let local_cache = Cache::open(fx.root.join("local-cache")).unwrap();
+    let local = run(&graph, &local_cache, &RunOptions::default(), &Silent);
+    fx.runs();
+    for (u, c) in &ids {
+        assert_eq!(b.result(*u).outputs, local.result(*u).outputs);
+        assert_eq!(b.result(*u).discovered, local.result(*u).discovered);
+        assert_eq!(b.result(*c).outputs, local.result(*c).outputs);
+    }
+
+    // The file the farm read is tracked like one read here; the job runs again, sent the
+    // file its last run read from the start (one round).
+    fs::write(fx.root.join("a/include.txt"), "+INC").unwrap();
+    let b = remote_build(&fx.cache);
+    assert!(matches!(
+        outcome(&b, ids[0].0),
+        Outcome::Ran(RunReason::Discovered(_))
+    ));
+    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+INC");
+    assert_eq!(fx.runs(), (1, 1));
+    assert_eq!((farm.executed(), farm.fell_back()), (8, 0));
 }

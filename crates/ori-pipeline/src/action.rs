@@ -4,8 +4,18 @@
 use std::path::Path;
 
 use ori_graph::{ActionJob, ContentHash, INPUTS_DIR, JOB_FILE, LEFT_FILE, OUTPUTS_DIR, run_action};
+use serde::{Deserialize, Serialize};
 
+use crate::config::LimitsConfig;
 use crate::stages::Registry;
+
+/// The build's settings an action carries ([`ActionJob::settings`]): the stages a worker
+/// runs load models within the builder's `[limits]`, not the worker's defaults.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActionSettings {
+    pub limits: LimitsConfig,
+}
 
 /// The largest description read (parameters are a few kilobytes).
 const MAX_JOB_BYTES: u64 = 1 << 20;
@@ -20,7 +30,14 @@ pub fn run_folder(dir: &Path) -> Result<(), String> {
     let text = read_bounded(&job_path, MAX_JOB_BYTES)?;
     let job: ActionJob = serde_json::from_slice(&text)
         .map_err(|e| format!("{}: not an action description: {e}", job_path.display()))?;
-    let registry = Registry::new(ori_mesh::Limits::default());
+    let settings = match &job.settings {
+        serde_json::Value::Null => ActionSettings::default(),
+        value => serde_json::from_value::<ActionSettings>(value.clone())
+            .map_err(|e| e.to_string())
+            .and_then(|s| s.limits.validate().map(|()| s))
+            .map_err(|e| format!("{}: the action's settings: {e}", job_path.display()))?,
+    };
+    let registry = Registry::new(settings.limits.mesh());
     let stage = registry
         .by_name(&job.stage)
         .ok_or_else(|| format!("{}: no stage `{}`", job_path.display(), job.stage))?;
@@ -87,6 +104,9 @@ mod tests {
                 params: serde_json::json!({}),
                 inputs,
                 hashed: BTreeMap::new(),
+                sources: BTreeMap::new(),
+                files: BTreeMap::new(),
+                settings: serde_json::Value::Null,
             })
             .unwrap()
         };
@@ -107,5 +127,52 @@ mod tests {
             "{e}"
         );
         assert!(!dir.path().join(OUTPUTS_DIR).exists());
+    }
+
+    #[test]
+    fn a_model_is_loaded_within_the_limits_the_action_carries() {
+        let model =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/bunny/bunny_npm_lowres.obj");
+        let bytes = std::fs::read(&model).unwrap();
+        let hash = ContentHash::of(&bytes);
+        let registry = Registry::new(ori_mesh::Limits::default());
+        let params = crate::stages::ingest::IngestJob::new(&model, &Default::default());
+        let action = |settings: serde_json::Value| ActionJob {
+            stage: "ingest".into(),
+            stage_version: registry.by_name("ingest").unwrap().version(),
+            asset: "bunny".into(),
+            params: serde_json::to_value(&params).unwrap(),
+            inputs: BTreeMap::from([("source".to_string(), hash)]),
+            hashed: BTreeMap::new(),
+            sources: BTreeMap::from([("source".to_string(), "bunny.obj".to_string())]),
+            files: BTreeMap::new(),
+            settings,
+        };
+        let run = |settings| {
+            let job = serde_json::to_value(action(settings)).unwrap();
+            let dir = folder(&job, &[(&hash.to_hex(), &bytes)]);
+            let ran = run_folder(dir.path());
+            (ran, dir)
+        };
+        let (ran, dir) = run(serde_json::Value::Null);
+        ran.unwrap();
+        assert!(dir.path().join(OUTPUTS_DIR).join("mesh").is_file());
+
+        let strict = ActionSettings {
+            limits: LimitsConfig {
+                max_triangles: 100,
+                ..LimitsConfig::default()
+            },
+        };
+        let (ran, _dir) = run(serde_json::to_value(strict).unwrap());
+        let e = ran.unwrap_err();
+        assert!(e.contains("[limits] max_triangles"), "{e}");
+
+        let (ran, _dir) = run(serde_json::json!({"limits": {"max_triangles": 0}}));
+        let e = ran.unwrap_err();
+        assert!(
+            e.contains("the action's settings: [limits] max_triangles = 0"),
+            "{e}"
+        );
     }
 }

@@ -110,14 +110,15 @@ fn setup(options: &BuildOptions) -> Result<Setup, PipelineError> {
         .as_ref()
         .or(config.execution.remote.as_ref());
     let execution = match farm {
-        Some(url) if !options.dry_run && options.mode != Mode::Assemble => {
-            Some(Arc::new(config.execution.open(url).map_err(|message| {
-                PipelineError::Config {
+        Some(url) if !options.dry_run && options.mode != Mode::Assemble => Some(Arc::new(
+            config
+                .execution
+                .open(url, &config.limits)
+                .map_err(|message| PipelineError::Config {
                     path: options.config.clone(),
                     message,
-                }
-            })?))
-        }
+                })?,
+        )),
         _ => None,
     };
     let mut params = Vec::with_capacity(assets.len());

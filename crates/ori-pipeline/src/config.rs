@@ -30,7 +30,7 @@ pub struct Config {
 
 /// `[limits]`: how large the files a model brings may be, and what it may make the loader
 /// allocate. Every model and the files it references are untrusted input.
-#[derive(Clone, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LimitsConfig {
     /// Largest model file, and largest file it references, in MiB.
@@ -65,7 +65,7 @@ impl Default for LimitsConfig {
 }
 
 impl LimitsConfig {
-    fn validate(&self) -> Result<(), String> {
+    pub(crate) fn validate(&self) -> Result<(), String> {
         let positive = [
             ("max_file_mb", self.max_file_mb),
             ("max_texture_pixels", self.max_texture_pixels),
@@ -319,8 +319,12 @@ impl ExecutionConfig {
     }
 
     /// The remote executor this configures, on the farm at `url` (`[execution] remote` or the
-    /// command line's); reads the token.
-    pub fn open(&self, url: &str) -> Result<ori_graph::RemoteExecution, String> {
+    /// command line's), whose workers load models within `limits`; reads the token.
+    pub fn open(
+        &self,
+        url: &str,
+        limits: &LimitsConfig,
+    ) -> Result<ori_graph::RemoteExecution, String> {
         check_grpc_url(url).map_err(|why| format!("remote execution {url:?}: {why}"))?;
         let token = read_token("[execution]", self.token_env.as_deref())?;
         let timeout = std::time::Duration::from_secs_f64(self.timeout_s);
@@ -332,7 +336,13 @@ impl ExecutionConfig {
         };
         let executor =
             ori_reapi::executor::ReapiExecutor::new(settings, None, self.max_in_flight, timeout)?;
-        Ok(ori_graph::RemoteExecution::new(Box::new(executor)))
+        let settings = crate::action::ActionSettings {
+            limits: limits.clone(),
+        };
+        Ok(ori_graph::RemoteExecution::new(
+            Box::new(executor),
+            serde_json::to_value(settings).expect("plain data"),
+        ))
     }
 }
 

@@ -291,12 +291,13 @@ impl Executor for ReapiExecutor {
         read: &dyn Fn(&ContentHash) -> Result<Vec<u8>, StageError>,
     ) -> Result<ActionOutputs, ExecuteError> {
         let tool = self.tool()?;
-        let mut input_blobs = Vec::with_capacity(job.inputs.len());
+        let hashes = job.blobs();
+        let mut input_blobs = Vec::with_capacity(hashes.len());
         let mut inputs = BTreeMap::new();
-        for hash in job.inputs.values() {
-            let bytes = read(hash).map_err(|e| ExecuteError::Failed(e.to_string()))?;
+        for hash in hashes {
+            let bytes = read(&hash).map_err(|e| ExecuteError::Failed(e.to_string()))?;
             let digest = digest_of(&bytes);
-            inputs.insert(*hash, digest.clone());
+            inputs.insert(hash, digest.clone());
             input_blobs.push((digest, bytes));
         }
         let action = build_action(job, &inputs, &tool.digest, self.action_timeout);
