@@ -72,6 +72,11 @@ pub enum Bench {
         /// Worker counts (each also the shard count compared).
         #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
         workers: Vec<usize>,
+        /// Run each worker and each shard on one core of its own (`taskset`), as on machines
+        /// of one core each, so that the farm and the shards have the same cores; counts
+        /// must not exceed this machine's cores.
+        #[arg(long)]
+        one_core_each: bool,
     },
     /// A cold build of one model at a time, models of growing size: the build's seconds, each
     /// stage's job seconds and peak memory, medians, then each fitted as a fixed cost plus a
@@ -123,9 +128,15 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::Select { runs } => select(runs),
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
-        Bench::RemoteExec { models, workers } => {
-            crate::bench_remote_exec::run(&models.unwrap_or_else(shared_models), &workers)
-        }
+        Bench::RemoteExec {
+            models,
+            workers,
+            one_core_each,
+        } => crate::bench_remote_exec::run(
+            &models.unwrap_or_else(shared_models),
+            &workers,
+            one_core_each,
+        ),
         Bench::Remote {
             baseline,
             models,

@@ -1,6 +1,8 @@
 //! `cargo xtask bench remote-exec`: cold builds of ../shared/models on a local BuildGrid farm
 //! with 1, 2, 3 workers, against the same machine building alone and against `--shard K/N` in
 //! N processes at once (then `assemble`): wall times, and where the farm's job time went.
+//! With `--one-core-each`, worker K and shard K run on core K alone, as N one-core machines
+//! would: the farm's balance against the static split at equal cores.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -14,6 +16,19 @@ use crate::buildgrid::BuildGrid;
 /// asset (what a static split cannot foresee).
 const CONFIG: &str = "[assets]\nroot = \"assets\"\n[select]\ns0 = 64\nregion_steps = 2\n";
 
+/// This program, on core `core` alone when given (`taskset`).
+fn program_on(core: Option<usize>) -> Result<Command, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    Ok(match core {
+        Some(core) => {
+            let mut command = Command::new("taskset");
+            command.args(["--cpu-list", &core.to_string()]).arg(exe);
+            command
+        }
+        None => Command::new(exe),
+    })
+}
+
 /// `build-assets` (or `assemble`, `which`) of the project, quiet, its output captured.
 fn command(
     which: &str,
@@ -22,8 +37,19 @@ fn command(
     out: &Path,
     extra: &[&str],
 ) -> Result<Command, String> {
-    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let mut command = Command::new(exe);
+    command_on(None, which, config, cache, out, extra)
+}
+
+/// `command`, on core `core` alone when given.
+fn command_on(
+    core: Option<usize>,
+    which: &str,
+    config: &Path,
+    cache: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> Result<Command, String> {
+    let mut command = program_on(core)?;
     command
         .args([which, "--quiet", "--no-report", "--config"])
         .arg(config)
@@ -74,8 +100,16 @@ fn job_seconds(text: &str) -> Result<(f64, f64, f64), String> {
     }
 }
 
-pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
+pub fn run(models: &Path, workers: &[usize], one_core_each: bool) -> Result<(), String> {
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if one_core_each && workers.iter().any(|&n| n > cores) {
+        return Err(format!(
+            "--one-core-each: this machine has {cores} cores, fewer than the counts {workers:?}"
+        ));
+    }
+    // Worker or shard `k` (from 0): its core, with --one-core-each.
+    let core = |k: usize| one_core_each.then_some(k);
     let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
     copy_tree(models, &dir.path().join("assets"))?;
     let config = dir.path().join("pipeline.toml");
@@ -95,10 +129,13 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
         "build",
     )?;
     println!(
-        "cold build of {} on this machine alone: {:.1} s",
+        "cold build of {} on this machine alone ({cores} cores): {:.1} s",
         models.display(),
         alone.as_secs_f64()
     );
+    if one_core_each {
+        println!("worker k and shard k run on core k alone (the builder on any)");
+    }
     println!(
         "{:>7} {:>10} {:>10} {:>12} {:>10} {:>10} {:>10}   {:>10} {:>10}  shard parts (s)",
         "workers",
@@ -114,8 +151,8 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
     for &n in workers {
         // The farm: a fresh one (its action cache would answer everything), n workers.
         let mut farm = BuildGrid::start()?;
-        for _ in 0..n {
-            farm.add_worker(&exe)?;
+        for k in 0..n {
+            farm.add_worker_on(&exe, program_on(core(k))?)?;
         }
         let (name_cache, name_out) = (format!("cache-farm{n}"), format!("out-farm{n}"));
         let (wall, text) = timed(
@@ -140,7 +177,8 @@ pub fn run(models: &Path, workers: &[usize]) -> Result<(), String> {
         let mut parts: Vec<(Option<f64>, Child)> = (1..=n)
             .map(|k| {
                 let shard = format!("{k}/{n}");
-                let mut c = command(
+                let mut c = command_on(
+                    core(k - 1),
                     "build-assets",
                     &config,
                     &cache,

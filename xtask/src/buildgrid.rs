@@ -207,12 +207,19 @@ impl BuildGrid {
     }
 
     /// Start a worker: `tool reapi-worker` on this farm, its folder inside the farm's.
+    #[allow(dead_code)] // tests/remote_exec.rs
     pub fn add_worker(&mut self, tool: &Path) -> Result<(), String> {
+        self.add_worker_on(tool, Command::new(tool))
+    }
+
+    /// Start a worker as `add_worker` does, with `command` (the tool, or a wrapper that runs
+    /// it, such as `taskset`).
+    pub fn add_worker_on(&mut self, tool: &Path, mut command: Command) -> Result<(), String> {
         let n = self.workers.len();
         let dir = self.dir.path().join(format!("worker-{n}"));
         let log = std::fs::File::create(self.dir.path().join(format!("worker-{n}.log")))
             .map_err(|e| e.to_string())?;
-        let child = Command::new(tool)
+        let child = command
             .args(["reapi-worker", "--server", &self.url, "--bot-id"])
             .arg(format!("worker-{n}"))
             .arg("--work-dir")
