@@ -414,10 +414,34 @@ fn missing_source_fails_with_its_path() {
 }
 
 /// A farm in this process: it copies an action's blobs, as a farm stores them, and runs the
-/// action on them. Counts the actions sent.
+/// action on them. Counts the actions sent and keeps every blob it was sent; with `lie`, it
+/// says each stage also read `include.txt`.
 struct InProcessFarm {
     stages: Vec<Arc<dyn Stage>>,
     sent: AtomicUsize,
+    received: Arc<std::sync::Mutex<Vec<Vec<u8>>>>,
+    lie: bool,
+}
+
+impl InProcessFarm {
+    fn new(fx: &Fixture, lie: bool) -> InProcessFarm {
+        InProcessFarm {
+            stages: vec![fx.upper.clone(), fx.count.clone()],
+            sent: AtomicUsize::new(0),
+            received: Arc::default(),
+            lie,
+        }
+    }
+}
+
+/// An observer that keeps the warnings.
+#[derive(Default)]
+struct Notes(std::sync::Mutex<Vec<String>>);
+
+impl ori_graph::Observer for Notes {
+    fn note(&self, message: &str) {
+        self.0.lock().unwrap().push(message.to_string());
+    }
 }
 
 impl Executor for InProcessFarm {
@@ -436,6 +460,7 @@ impl Executor for InProcessFarm {
         let mut stored = std::collections::HashMap::new();
         for hash in job.blobs() {
             let bytes = read(&hash).map_err(|e| ExecuteError::Failed(e.to_string()))?;
+            self.received.lock().unwrap().push(bytes.clone());
             stored.insert(hash, bytes);
         }
         let stage = self.stages.iter().find(|s| s.name() == job.stage).unwrap();
@@ -445,7 +470,15 @@ impl Executor for InProcessFarm {
                 .cloned()
                 .ok_or_else(|| std::io::Error::other("not sent"))
         };
-        run_action(stage.as_ref(), job, &read).map_err(|e| ExecuteError::Failed(e.to_string()))
+        let mut done = run_action(stage.as_ref(), job, &read)
+            .map_err(|e| ExecuteError::Failed(e.to_string()))?;
+        if self.lie && done.left.wanted.is_empty() {
+            done.left.discovered.push(ori_graph::DiscoveredFile {
+                path: "include.txt".into(),
+                hash: Some(ContentHash::of(b"made up")),
+            });
+        }
+        Ok(done)
     }
 }
 
@@ -455,10 +488,7 @@ fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds
     fs::write(fx.root.join("a/include.txt"), "+inc").unwrap();
     let (graph, ids) = fx.graph(&defaults);
     let farm = Arc::new(RemoteExecution::new(
-        Box::new(InProcessFarm {
-            stages: vec![fx.upper.clone(), fx.count.clone()],
-            sent: AtomicUsize::new(0),
-        }),
+        Box::new(InProcessFarm::new(&fx, false)),
         json!({"setting": 1}),
     ));
     let remote_build = |cache: &Cache| {
@@ -499,4 +529,64 @@ fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds
     assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+INC");
     assert_eq!(fx.runs(), (1, 1));
     assert_eq!((farm.executed(), farm.fell_back()), (8, 0));
+}
+
+#[test]
+fn a_farm_is_sent_no_file_from_outside_the_root_and_what_it_says_it_read_is_checked() {
+    let fx = Fixture::new();
+    let outside = tempfile::tempdir().unwrap();
+    fs::write(outside.path().join("secret.txt"), "secret").unwrap();
+    std::os::unix::fs::symlink(
+        outside.path().join("secret.txt"),
+        fx.root.join("a/include.txt"),
+    )
+    .unwrap();
+    let (graph, ids) = fx.graph(&defaults);
+    let sources = ori_graph::SourceRules::confined(&fx.root, 1 << 20).unwrap();
+    let build_on = |farm: &Arc<RemoteExecution>, cache: &str| {
+        let notes = Notes::default();
+        let options = RunOptions {
+            threads: 2,
+            sources: sources.clone(),
+            execution: Some(farm.clone()),
+            ..RunOptions::default()
+        };
+        let cache = Cache::open(fx.root.join(cache)).unwrap();
+        let b = run(&graph, &cache, &options, &notes);
+        assert!(b.succeeded());
+        let outputs: Vec<_> = ids.iter().map(|(u, _)| b.result(*u).clone()).collect();
+        (outputs, notes.0.into_inner().unwrap())
+    };
+
+    // The link leads outside the root: the farm is not sent it, and the job runs here, where
+    // the stage is refused it too.
+    let in_process = InProcessFarm::new(&fx, false);
+    let received = in_process.received.clone();
+    let farm = Arc::new(RemoteExecution::new(Box::new(in_process), Value::Null));
+    let (results, notes) = build_on(&farm, "cache-1");
+    assert!(!received.lock().unwrap().iter().any(|b| b == b"secret"));
+    assert_eq!((farm.executed(), farm.fell_back()), (5, 1));
+    assert!(!results[0].ran_remotely && results[1].ran_remotely);
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0]
+            .contains("job `upper` did not run on in-process farm: `include.txt` cannot be sent")
+            && notes[0].contains("outside the asset root"),
+        "{notes:?}"
+    );
+
+    // A farm that says a stage read a file it was not sent: not believed, each job runs here.
+    let liar = Arc::new(RemoteExecution::new(
+        Box::new(InProcessFarm::new(&fx, true)),
+        Value::Null,
+    ));
+    let (results, notes) = build_on(&liar, "cache-2");
+    assert_eq!((liar.executed(), liar.fell_back()), (0, 6));
+    assert!(results.iter().all(|r| !r.ran_remotely));
+    // (All but asset a's `upper`, which is not sent at all, as above.)
+    let lies = notes
+        .iter()
+        .filter(|n| n.contains("it read `include.txt`, which was not sent"))
+        .count();
+    assert_eq!(lies, 5, "{notes:?}");
 }
