@@ -2,6 +2,7 @@
 //! down, every download checked against its digest), the action cache and `Execute`. Each
 //! call blocks on a small tokio runtime of its own, so the build graph stays synchronous.
 
+use std::collections::HashMap;
 use std::future::Future;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -353,51 +354,96 @@ impl Client {
 
     /// The blob's bytes, checked against its digest; `limit`: the most bytes accepted.
     pub fn download(&self, digest: &Digest, limit: u64) -> Result<Vec<u8>, Error> {
-        let size = u64::try_from(digest.size_bytes)
-            .map_err(|_| Error::Failed(format!("blob {}: negative size", digest.hash)))?;
-        if size > limit {
-            return Err(Error::Failed(format!(
-                "blob {}: {size} bytes, more than the {limit} accepted",
-                digest.hash
-            )));
-        }
-        let bytes = if size + BATCH_OVERHEAD <= self.batch_limit() {
-            self.batch_read(digest)?
-        } else {
-            self.read(digest, size)?
-        };
-        if digest_of(&bytes) != *digest {
-            return Err(Error::Failed(format!(
-                "blob {}: the server's bytes do not match its digest",
-                digest.hash
-            )));
-        }
-        Ok(bytes)
+        let mut bytes = self.download_many(std::slice::from_ref(digest), limit)?;
+        Ok(bytes.pop().expect("one blob asked for"))
     }
 
-    fn batch_read(&self, digest: &Digest) -> Result<Vec<u8>, Error> {
+    /// The bytes of each blob, in order, each checked against its digest; `limit`: the most
+    /// bytes accepted of one. Small blobs come in as few batches as the server's limit
+    /// allows (one request for a job's few outputs), large ones by ByteStream.
+    pub fn download_many(&self, digests: &[Digest], limit: u64) -> Result<Vec<Vec<u8>>, Error> {
+        let batch_limit = self.batch_limit().saturating_sub(BATCH_OVERHEAD);
+        let mut blobs: Vec<Option<Vec<u8>>> = vec![None; digests.len()];
+        let mut batch: Vec<usize> = Vec::new();
+        let mut batch_bytes = 0u64;
+        for (k, digest) in digests.iter().enumerate() {
+            let size = u64::try_from(digest.size_bytes)
+                .map_err(|_| Error::Failed(format!("blob {}: negative size", digest.hash)))?;
+            if size > limit {
+                return Err(Error::Failed(format!(
+                    "blob {}: {size} bytes, more than the {limit} accepted",
+                    digest.hash
+                )));
+            }
+            if size + ENTRY_OVERHEAD > batch_limit {
+                blobs[k] = Some(self.read(digest, size)?);
+                continue;
+            }
+            if batch_bytes + size + ENTRY_OVERHEAD > batch_limit {
+                self.batch_read(digests, &std::mem::take(&mut batch), &mut blobs)?;
+                batch_bytes = 0;
+            }
+            batch_bytes += size + ENTRY_OVERHEAD;
+            batch.push(k);
+        }
+        self.batch_read(digests, &batch, &mut blobs)?;
+        digests
+            .iter()
+            .zip(blobs)
+            .map(|(digest, bytes)| {
+                let bytes = bytes.expect("every blob read");
+                match digest_of(&bytes) == *digest {
+                    true => Ok(bytes),
+                    false => Err(Error::Failed(format!(
+                        "blob {}: the server's bytes do not match its digest",
+                        digest.hash
+                    ))),
+                }
+            })
+            .collect()
+    }
+
+    /// Read the blobs `digests[k]` for each `k` of `batch` into `blobs[k]`, in one request.
+    fn batch_read(
+        &self,
+        digests: &[Digest],
+        batch: &[usize],
+        blobs: &mut [Option<Vec<u8>>],
+    ) -> Result<(), Error> {
+        if batch.is_empty() {
+            return Ok(());
+        }
         let responses = self.call(async {
             let mut client = ContentAddressableStorageClient::new(self.channel.clone());
             let request = self.request(BatchReadBlobsRequest {
                 instance_name: self.instance(),
-                digests: vec![digest.clone()],
+                digests: batch.iter().map(|&k| digests[k].clone()).collect(),
                 acceptable_compressors: Vec::new(),
                 digest_function: 0,
             });
             Ok(client.batch_read_blobs(request).await?.into_inner())
         })?;
-        let response = responses
-            .responses
-            .into_iter()
-            .find(|r| r.digest.as_ref() == Some(digest))
-            .ok_or_else(|| Error::Failed(format!("blob {}: not in the answer", digest.hash)))?;
-        match response.status {
-            Some(status) if status.code != 0 => Err(Error::Failed(format!(
-                "blob {}: {}",
-                digest.hash, status.message
-            ))),
-            _ => Ok(response.data),
+        let key = |d: &Digest| (d.hash.clone(), d.size_bytes);
+        let mut found: HashMap<(String, i64), Vec<u8>> = HashMap::new();
+        for response in responses.responses {
+            let Some(digest) = response.digest else {
+                continue;
+            };
+            if let Some(status) = response.status.filter(|s| s.code != 0) {
+                return Err(Error::Failed(format!(
+                    "blob {}: {}",
+                    digest.hash, status.message
+                )));
+            }
+            found.insert(key(&digest), response.data);
         }
+        for &k in batch {
+            let bytes = found.get(&key(&digests[k])).ok_or_else(|| {
+                Error::Failed(format!("blob {}: not in the answer", digests[k].hash))
+            })?;
+            blobs[k] = Some(bytes.clone());
+        }
+        Ok(())
     }
 
     fn read(&self, digest: &Digest, size: u64) -> Result<Vec<u8>, Error> {

@@ -147,6 +147,7 @@ impl ReapiExecutor {
                 "the `{OUTPUTS_DIR}` folder holds more than files"
             )));
         }
+        let mut digests = Vec::with_capacity(root.files.len());
         for file in &root.files {
             if file.name != LEFT_FILE && !ActionJob::is_output_name(&file.name) {
                 return Err(Error::Failed(format!(
@@ -156,9 +157,12 @@ impl ReapiExecutor {
             }
             let digest = file
                 .digest
-                .as_ref()
+                .clone()
                 .ok_or_else(|| Error::Failed(format!("output `{}` has no digest", file.name)))?;
-            let bytes = self.client.download(digest, MAX_OUTPUT_BYTES)?;
+            digests.push(digest);
+        }
+        let blobs = self.client.download_many(&digests, MAX_OUTPUT_BYTES)?;
+        for (file, bytes) in root.files.iter().zip(blobs) {
             if file.name == LEFT_FILE {
                 left = Some(
                     serde_json::from_slice::<ActionLeft>(&bytes)

@@ -327,24 +327,31 @@ fn execute(
             )));
         }
     };
-    let fetch = |digest: &Option<Digest>, what: &str| {
-        let digest = digest
-            .as_ref()
-            .ok_or_else(|| format!("the action has no {what}"))?;
-        client
-            .download(digest, MAX_MESSAGE_BYTES)
-            .map_err(|e| format!("{what}: {e}"))
+    let digest = |digest: &Option<Digest>, what: &str| {
+        digest
+            .clone()
+            .ok_or_else(|| LeaseError::invalid(format!("the action has no {what}")))
     };
-    let command = Command::decode(fetch(&action.command_digest, "command")?.as_slice())
+    let both = [
+        digest(&action.command_digest, "command")?,
+        digest(&action.input_root_digest, "input root")?,
+    ];
+    let [command, root]: [Vec<u8>; 2] = client
+        .download_many(&both, MAX_MESSAGE_BYTES)
+        .map_err(|e| format!("the command and input root: {e}"))?
+        .try_into()
+        .expect("two blobs asked for");
+    let command = Command::decode(command.as_slice())
         .map_err(|e| LeaseError::invalid(format!("the command: {e}")))?;
-    let root = Directory::decode(fetch(&action.input_root_digest, "input root")?.as_slice())
+    let root = Directory::decode(root.as_slice())
         .map_err(|e| LeaseError::invalid(format!("the input root: {e}")))?;
     // The input root in `root`, the command's standard output and error beside it.
     let input_root = dir.join("root");
     let _ = std::fs::remove_dir_all(dir);
     std::fs::create_dir_all(&input_root).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut entries = 0;
-    lay_out(client, tools, &root, &input_root, 0, &mut entries)?;
+    let mut linked = Linked::default();
+    lay_out(client, tools, &root, &input_root, &mut linked, 0, &mut entries)?;
     let workdir =
         join_relative(&input_root, &command.working_directory).map_err(LeaseError::invalid)?;
     let program = command
@@ -481,14 +488,40 @@ fn timestamp() -> bazel_remote_apis::google::protobuf::Timestamp {
 /// Programs kept between leases.
 const KEPT_PROGRAMS: usize = 4;
 
+/// What a file was (size, modification time, read-only), to tell whether it changed.
+type Stamp = (u64, std::time::SystemTime, bool);
+
+fn stamp(path: &Path) -> Option<Stamp> {
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?, meta.permissions().readonly()))
+}
+
+/// The kept programs linked into a lease's folder, with what each was when linked. When the
+/// lease is over, one that changed (through its link, or its mode) is forgotten, so that no
+/// later lease runs it.
+#[derive(Default)]
+struct Linked(Vec<(PathBuf, Option<Stamp>)>);
+
+impl Drop for Linked {
+    fn drop(&mut self) {
+        for (kept, then) in &self.0 {
+            if stamp(kept) != *then {
+                let _ = std::fs::remove_file(kept);
+            }
+        }
+    }
+}
+
 /// Put the program of digest `digest` at `path`. Programs (the tool a build's actions run,
 /// the same in all of them) are kept between leases in `tools`, read-only, the last few, and
-/// copied into each lease's folder; other files are fetched for each lease.
+/// linked into each lease's folder (copying a large program cost more than many a job);
+/// other files are fetched for each lease.
 fn place_program(
     client: &Client,
     tools: &Path,
     digest: &Digest,
     path: &Path,
+    linked: &mut Linked,
 ) -> Result<(), LeaseError> {
     let sha256 = digest.hash.len() == 64
         && digest
@@ -502,6 +535,9 @@ fn place_program(
         )));
     }
     let kept = tools.join(format!("{}-{}", digest.hash, digest.size_bytes));
+    if stamp(&kept).is_some_and(|(_, _, readonly)| !readonly) {
+        let _ = std::fs::remove_file(&kept);
+    }
     if !kept.is_file() {
         std::fs::create_dir_all(tools).map_err(|e| format!("{}: {e}", tools.display()))?;
         let bytes = client
@@ -513,7 +549,12 @@ fn place_program(
         std::fs::rename(&partial, &kept).map_err(|e| format!("{}: {e}", kept.display()))?;
         forget_old_programs(tools, &kept);
     }
-    // A copy, so that an action cannot change the kept program through its own file.
+    let then = stamp(&kept);
+    if std::fs::hard_link(&kept, path).is_ok() {
+        linked.0.push((kept, then));
+        return Ok(());
+    }
+    // A file system without links: a copy.
     std::fs::copy(&kept, path).map_err(|e| format!("{}: {e}", path.display()))?;
     set_mode(path, 0o755)?;
     Ok(())
@@ -542,6 +583,7 @@ fn lay_out(
     tools: &Path,
     directory: &Directory,
     dir: &Path,
+    linked: &mut Linked,
     depth: usize,
     entries: &mut usize,
 ) -> Result<(), LeaseError> {
@@ -561,46 +603,56 @@ fn lay_out(
             "the input root has symbolic links, which this worker does not lay out",
         ));
     }
+    // The folder's files but its programs, and its folders' listings: fetched together.
+    let mut fetched: Vec<(PathBuf, Option<&str>)> = Vec::new();
+    let mut digests = Vec::new();
+    let mut named = std::collections::HashSet::new();
     for file in &directory.files {
-        let path = dir.join(component(&file.name).map_err(LeaseError::invalid)?);
+        let name = component(&file.name).map_err(LeaseError::invalid)?;
         let digest = file
             .digest
             .as_ref()
-            .ok_or_else(|| LeaseError::invalid(format!("{}: no digest", file.name)))?;
-        if path.exists() {
-            return Err(LeaseError::invalid(format!(
-                "`{}` is named twice",
-                file.name
-            )));
+            .ok_or_else(|| LeaseError::invalid(format!("{name}: no digest")))?;
+        if !named.insert(name) {
+            return Err(LeaseError::invalid(format!("`{name}` is named twice")));
         }
+        let path = dir.join(name);
         if file.is_executable {
-            place_program(client, tools, digest, &path)?;
-            continue;
+            place_program(client, tools, digest, &path, linked)?;
+        } else {
+            fetched.push((path, None));
+            digests.push(digest.clone());
         }
-        let bytes = client
-            .download(digest, MAX_BLOB_BYTES)
-            .map_err(|e| format!("{}: {e}", file.name))?;
-        std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
     }
     for sub in &directory.directories {
-        let path = dir.join(component(&sub.name).map_err(LeaseError::invalid)?);
-        if path.exists() {
-            return Err(LeaseError::invalid(format!(
-                "`{}` is named twice",
-                sub.name
-            )));
-        }
-        std::fs::create_dir(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let name = component(&sub.name).map_err(LeaseError::invalid)?;
         let digest = sub
             .digest
             .as_ref()
-            .ok_or_else(|| format!("{}: no digest", sub.name))?;
-        let bytes = client
-            .download(digest, MAX_MESSAGE_BYTES)
-            .map_err(|e| format!("{}: {e}", sub.name))?;
+            .ok_or_else(|| LeaseError::invalid(format!("{name}: no digest")))?;
+        if !named.insert(name) {
+            return Err(LeaseError::invalid(format!("`{name}` is named twice")));
+        }
+        if u64::try_from(digest.size_bytes).map_or(true, |n| n > MAX_MESSAGE_BYTES) {
+            return Err(LeaseError::invalid(format!(
+                "{name}: its listing is too large"
+            )));
+        }
+        fetched.push((dir.join(name), Some(name)));
+        digests.push(digest.clone());
+    }
+    let blobs = client
+        .download_many(&digests, MAX_BLOB_BYTES)
+        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    for ((path, folder), bytes) in fetched.into_iter().zip(blobs) {
+        let Some(name) = folder else {
+            std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+            continue;
+        };
+        std::fs::create_dir(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         let child = Directory::decode(bytes.as_slice())
-            .map_err(|e| LeaseError::invalid(format!("{}: {e}", sub.name)))?;
-        lay_out(client, tools, &child, &path, depth + 1, entries)?;
+            .map_err(|e| LeaseError::invalid(format!("{name}: {e}")))?;
+        lay_out(client, tools, &child, &path, linked, depth + 1, entries)?;
     }
     Ok(())
 }
@@ -722,6 +774,31 @@ fn set_mode(_path: &Path, _mode: u32) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_kept_program_changed_through_its_link_is_forgotten() {
+        let dir = tempfile::tempdir().unwrap();
+        let kept = dir.path().join("kept");
+        let place = |name: &str| {
+            let mut linked = Linked::default();
+            let then = stamp(&kept);
+            let link = dir.path().join(name);
+            std::fs::hard_link(&kept, &link).unwrap();
+            linked.0.push((kept.clone(), then));
+            (linked, link)
+        };
+        std::fs::write(&kept, b"program").unwrap();
+        set_mode(&kept, 0o555).unwrap();
+        // A lease that only ran it: kept.
+        let (linked, _link) = place("lease-1");
+        drop(linked);
+        assert!(kept.is_file());
+        // A lease that made it writable (to write it): forgotten.
+        let (linked, link) = place("lease-2");
+        set_mode(&link, 0o755).unwrap();
+        drop(linked);
+        assert!(!kept.exists());
+    }
 
     #[test]
     fn input_root_names_stay_in_their_folder() {
