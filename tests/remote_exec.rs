@@ -33,10 +33,15 @@ fn farm(workers: usize) -> BuildGrid {
 
 /// A build of the project with cache `cache-NAME` and output `out-NAME`, on `farm` if given.
 fn build_command(p: &Project, name: &str, farm: Option<&BuildGrid>) -> Command {
+    build_command_with(p, "pipeline.toml", name, farm)
+}
+
+/// `build_command` with the project's configuration file `config`.
+fn build_command_with(p: &Project, config: &str, name: &str, farm: Option<&BuildGrid>) -> Command {
     let mut command = Command::new(EXE);
     command
         .args(["build-assets", "--no-report", "--config"])
-        .arg(p.path("pipeline.toml"))
+        .arg(p.path(config))
         .arg("--cache")
         .arg(p.path(&format!("cache-{name}")))
         .arg("--out")
@@ -228,5 +233,46 @@ fn a_job_whose_worker_dies_runs_again_on_another() {
         &tree(&p.path("out-farm")),
         &tree(&p.path("out-local")),
         "farm (one worker lost) and local builds",
+    );
+}
+
+#[test]
+fn a_farm_that_wants_a_token_runs_the_jobs_of_a_builder_that_has_it_and_refuses_others() {
+    let p = Project::new(&["box-vertex-colors"]);
+    let mut farm = BuildGrid::start_with_token()
+        .unwrap_or_else(|e| panic!("cannot start the test's BuildGrid: {e}"));
+    farm.add_worker(Path::new(EXE)).unwrap();
+    let token = farm.token.clone().unwrap();
+    // The same project, once with the token variable named.
+    let config = std::fs::read_to_string(p.path("pipeline.toml")).unwrap();
+    std::fs::write(
+        p.path("with-token.toml"),
+        format!("{config}\n[execution]\ntoken_env = \"ORI_TEST_FARM_TOKEN\"\n"),
+    )
+    .unwrap();
+    let with_token = build_command_with(&p, "with-token.toml", "token", Some(&farm))
+        .env("ORI_TEST_FARM_TOKEN", &token)
+        .output()
+        .unwrap();
+    let log = ok(&with_token);
+    let line = execution_line(&with_token);
+    let all_there = format!("remote execution {}: 8 job(s) ran there (", farm.url);
+    assert!(line.starts_with(&all_there), "{log}");
+    assert!(!log.contains("warning"), "{log}");
+
+    // Without it: refused at the first job, one warning, and the build is made here.
+    let without = build(&p, "none", Some(&farm));
+    let log = ok(&without);
+    let warnings: Vec<&str> = log
+        .lines()
+        .filter(|l| l.starts_with("warning: remote execution "))
+        .collect();
+    assert_eq!(warnings.len(), 1, "{log}");
+    assert!(warnings[0].contains("Unauthenticated"), "{log}");
+    assert_eq!(STAGES.iter().map(|s| remote(&without, s)).sum::<usize>(), 0);
+    same_release(
+        &tree(&p.path("out-token")),
+        &tree(&p.path("out-none")),
+        "farm (with a token) and local builds",
     );
 }

@@ -29,18 +29,8 @@ fn program_on(core: Option<usize>) -> Result<Command, String> {
     })
 }
 
-/// `build-assets` (or `assemble`, `which`) of the project, quiet, its output captured.
-fn command(
-    which: &str,
-    config: &Path,
-    cache: &Path,
-    out: &Path,
-    extra: &[&str],
-) -> Result<Command, String> {
-    command_on(None, which, config, cache, out, extra)
-}
-
-/// `command`, on core `core` alone when given.
+/// `build-assets` (or `assemble`, `which`) of the project, quiet, its output captured; on
+/// core `core` alone when given.
 fn command_on(
     core: Option<usize>,
     which: &str,
@@ -119,7 +109,8 @@ pub fn run(models: &Path, workers: &[usize], one_core_each: bool) -> Result<(), 
     let release = |out: &str| std::fs::read(p(out).join("release.json")).map_err(|e| e.to_string());
 
     let (alone, _) = timed(
-        command(
+        command_on(
+            None,
             "build-assets",
             &config,
             &p("cache-alone"),
@@ -156,7 +147,8 @@ pub fn run(models: &Path, workers: &[usize], one_core_each: bool) -> Result<(), 
         }
         let (name_cache, name_out) = (format!("cache-farm{n}"), format!("out-farm{n}"));
         let (wall, text) = timed(
-            command(
+            command_on(
+                None,
                 "build-assets",
                 &config,
                 &p(&name_cache),
@@ -205,7 +197,8 @@ pub fn run(models: &Path, workers: &[usize], one_core_each: bool) -> Result<(), 
             finish(child, &format!("shard {}/{n}", k + 1))?;
             part_times.push(done.unwrap_or_default());
         }
-        let assemble = command(
+        let assemble = command_on(
+            None,
             "assemble",
             &config,
             &cache,

@@ -22,7 +22,12 @@ pub struct BuildGrid {
     workers: Vec<Child>,
     /// `grpc://127.0.0.1:PORT`.
     pub url: String,
+    /// The bearer token the server wants (`start_with_token`), which its workers are given.
+    pub token: Option<String>,
 }
+
+/// The variable a token-wanting farm's workers read their token from.
+const TOKEN_VAR: &str = "ORI_FARM_TOKEN";
 
 fn workspace() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -84,6 +89,17 @@ fn run(command: &mut Command, what: &str) -> Result<(), String> {
 
 impl BuildGrid {
     pub fn start() -> Result<BuildGrid, String> {
+        BuildGrid::start_as(None)
+    }
+
+    /// A farm whose every request must carry a bearer token: a JWT signed with a secret of
+    /// its own (HS256, valid for a day; the server reads the secret from a file), in `token`.
+    #[allow(dead_code)] // tests/remote_exec.rs
+    pub fn start_with_token() -> Result<BuildGrid, String> {
+        BuildGrid::start_as(Some("a secret of the test farm"))
+    }
+
+    fn start_as(jwt_secret: Option<&str>) -> Result<BuildGrid, String> {
         let (venv, pg_bin) = (venv()?, pg_bin()?);
         let dir = tempfile::Builder::new()
             .prefix("ori-buildgrid")
@@ -127,6 +143,7 @@ impl BuildGrid {
             server: None,
             workers: Vec::new(),
             url: format!("grpc://127.0.0.1:{port}"),
+            token: None,
         };
         let root = farm.dir.path().to_path_buf();
         run(
@@ -160,8 +177,37 @@ impl BuildGrid {
             "bgd migrate apply",
         )?;
         let config = root.join("bgd.yml");
-        std::fs::write(&config, server_config(port, &database, &root.join("cas")))
-            .map_err(|e| e.to_string())?;
+        let mut text = server_config(port, &database, &root.join("cas"));
+        if let Some(secret) = jwt_secret {
+            let open = "authorization:\n  method: none\n";
+            let secret_file = root.join("jwt-secret");
+            std::fs::write(&secret_file, secret).map_err(|e| e.to_string())?;
+            let jwt = format!(
+                "authorization:\n  method: jwt\n  algorithm: hs256\n  secret: \"{}\"\n",
+                secret_file.display()
+            );
+            if !text.contains(open) {
+                return Err(format!("tests/servers/buildgrid.yml has no `{open}`"));
+            }
+            text = text.replace(open, &jwt);
+            let token = Command::new(venv.join("bin/python"))
+                .args([
+                    "-c",
+                    "import jwt, sys, time; \
+                     print(jwt.encode({'exp': int(time.time()) + 86400}, sys.argv[1], 'HS256'))",
+                    secret,
+                ])
+                .output()
+                .map_err(|e| format!("making a token: {e}"))?;
+            if !token.status.success() {
+                return Err(format!(
+                    "making a token: {}",
+                    String::from_utf8_lossy(&token.stderr)
+                ));
+            }
+            farm.token = Some(String::from_utf8_lossy(&token.stdout).trim().to_string());
+        }
+        std::fs::write(&config, text).map_err(|e| e.to_string())?;
         std::fs::create_dir_all(root.join("cas")).map_err(|e| e.to_string())?;
         let log = std::fs::File::create(root.join("bgd.log")).map_err(|e| e.to_string())?;
         let server = Command::new(venv.join("bin/bgd"))
@@ -219,8 +265,14 @@ impl BuildGrid {
         let dir = self.dir.path().join(format!("worker-{n}"));
         let log = std::fs::File::create(self.dir.path().join(format!("worker-{n}.log")))
             .map_err(|e| e.to_string())?;
+        command.args(["reapi-worker", "--server", &self.url]);
+        if let Some(token) = &self.token {
+            command
+                .args(["--token-env", TOKEN_VAR])
+                .env(TOKEN_VAR, token);
+        }
         let child = command
-            .args(["reapi-worker", "--server", &self.url, "--bot-id"])
+            .arg("--bot-id")
             .arg(format!("worker-{n}"))
             .arg("--work-dir")
             .arg(dir)

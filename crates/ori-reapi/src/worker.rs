@@ -351,7 +351,15 @@ fn execute(
     std::fs::create_dir_all(&input_root).map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut entries = 0;
     let mut linked = Linked::default();
-    lay_out(client, tools, &root, &input_root, &mut linked, 0, &mut entries)?;
+    lay_out(
+        client,
+        tools,
+        &root,
+        &input_root,
+        &mut linked,
+        0,
+        &mut entries,
+    )?;
     let workdir =
         join_relative(&input_root, &command.working_directory).map_err(LeaseError::invalid)?;
     let program = command
@@ -493,7 +501,11 @@ type Stamp = (u64, std::time::SystemTime, bool);
 
 fn stamp(path: &Path) -> Option<Stamp> {
     let meta = std::fs::metadata(path).ok()?;
-    Some((meta.len(), meta.modified().ok()?, meta.permissions().readonly()))
+    Some((
+        meta.len(),
+        meta.modified().ok()?,
+        meta.permissions().readonly(),
+    ))
 }
 
 /// The kept programs linked into a lease's folder, with what each was when linked. When the
