@@ -130,15 +130,19 @@ impl RemoteExecution {
         let failed = match self.executor.execute(job, read) {
             Ok(done) if !done.left.wanted.is_empty() => return Some(done),
             Ok(done) => {
-                let unsent = done
-                    .left
-                    .discovered
-                    .iter()
-                    .find(|f| job.files.get(&f.path) != Some(&f.hash));
+                let unsent = done.left.discovered.iter().find_map(|f| {
+                    let why = match job.files.get(&f.path) {
+                        Some(sent) if *sent == f.hash => return None,
+                        None => "which was not sent",
+                        Some(None) => "which was sent as absent",
+                        Some(Some(_)) => "with other bytes than were sent",
+                    };
+                    Some(format!("it read `{}`, {why}", f.path))
+                });
                 match done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
                     Some(name) => format!("it returned an output named `{name}`"),
                     None => match unsent {
-                        Some(file) => format!("it read `{}`, which was not sent", file.path),
+                        Some(why) => why,
                         None => {
                             self.executed.fetch_add(1, Ordering::Relaxed);
                             return Some(done);

@@ -416,6 +416,8 @@ fn execute(
         }
         std::thread::sleep(Duration::from_millis(20));
     };
+    // What it left running in its group is stopped too: nothing of a lease outlives it.
+    kill_group(&mut child);
     let execution_completed = timestamp();
     let mut result = ActionResult {
         exit_code: status.code().unwrap_or(-1),
@@ -615,7 +617,8 @@ fn lay_out(
             "the input root has symbolic links, which this worker does not lay out",
         ));
     }
-    // The folder's files but its programs, and its folders' listings: fetched together.
+    // The folder's files but its programs, and its folders' listings: fetched together, a
+    // few MiB at a time (each group written before the next is fetched).
     let mut fetched: Vec<(PathBuf, Option<&str>)> = Vec::new();
     let mut digests = Vec::new();
     let mut named = std::collections::HashSet::new();
@@ -653,21 +656,38 @@ fn lay_out(
         fetched.push((dir.join(name), Some(name)));
         digests.push(digest.clone());
     }
-    let blobs = client
-        .download_many(&digests, MAX_BLOB_BYTES)
-        .map_err(|e| format!("{}: {e}", dir.display()))?;
-    for ((path, folder), bytes) in fetched.into_iter().zip(blobs) {
-        let Some(name) = folder else {
-            std::fs::write(&path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
-            continue;
-        };
-        std::fs::create_dir(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let child = Directory::decode(bytes.as_slice())
-            .map_err(|e| LeaseError::invalid(format!("{name}: {e}")))?;
-        lay_out(client, tools, &child, &path, linked, depth + 1, entries)?;
+    let mut start = 0;
+    while start < digests.len() {
+        let mut end = start + 1;
+        let mut bytes = digests[start].size_bytes.max(0) as u64;
+        while end < digests.len() {
+            bytes = bytes.saturating_add(digests[end].size_bytes.max(0) as u64);
+            if bytes > FETCH_GROUP_BYTES {
+                break;
+            }
+            end += 1;
+        }
+        let blobs = client
+            .download_many(&digests[start..end], MAX_BLOB_BYTES)
+            .map_err(|e| format!("{}: {e}", fetched[start].0.display()))?;
+        for ((path, folder), bytes) in fetched[start..end].iter().zip(blobs) {
+            let Some(name) = folder else {
+                std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+                continue;
+            };
+            std::fs::create_dir(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let child = Directory::decode(bytes.as_slice())
+                .map_err(|e| LeaseError::invalid(format!("{name}: {e}")))?;
+            lay_out(client, tools, &child, path, linked, depth + 1, entries)?;
+        }
+        start = end;
     }
     Ok(())
 }
+
+/// The most bytes of a folder's files fetched before they are written (one larger file is
+/// fetched alone).
+const FETCH_GROUP_BYTES: u64 = 4 << 20;
 
 /// One name of an input root: a single path component that stays in its folder.
 fn component(name: &str) -> Result<&str, String> {
