@@ -57,6 +57,20 @@ fn build(p: &Project, name: &str, farm: Option<&BuildGrid>) -> Output {
     build_command(p, name, farm).output().unwrap()
 }
 
+/// A build of the project on `farm` (`farm`), started, its output piped.
+fn spawn_farm_build(p: &Project, farm: &BuildGrid) -> std::process::Child {
+    build_command(p, "farm", Some(farm))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// The jobs of all stages that ran on the farm.
+fn remote_jobs(out: &Output) -> usize {
+    STAGES.iter().map(|s| remote(out, s)).sum()
+}
+
 /// The `remote` column of the summary line for `stage` (after `ran`).
 fn remote(out: &Output, stage: &str) -> usize {
     summary_column(out, stage, 2)
@@ -107,6 +121,29 @@ fn execution_line(out: &Output) -> String {
         .to_string()
 }
 
+/// Whether the build's remote execution line says that all of its `jobs` ran on `farm`.
+fn all_ran_there(out: &Output, farm: &BuildGrid, jobs: usize) -> bool {
+    let all = format!("remote execution {}: {jobs} job(s) ran there (", farm.url);
+    execution_line(out).starts_with(&all)
+}
+
+/// The lines of `log` that warn that remote execution stopped.
+fn execution_warnings(log: &str) -> Vec<&str> {
+    log.lines()
+        .filter(|l| l.starts_with("warning: remote execution "))
+        .collect()
+}
+
+/// Build the project here (`local`), and check that it makes the release `out-NAME` holds.
+fn same_as_a_local_build(p: &Project, name: &str, what: &str) {
+    ok(&build(p, "local", None));
+    same_release(
+        &tree(&p.path(&format!("out-{name}"))),
+        &tree(&p.path("out-local")),
+        what,
+    );
+}
+
 #[test]
 fn a_farm_builds_the_samples_as_this_machine_does_and_a_rebuild_runs_nothing() {
     let p = Project::new(&SAMPLES);
@@ -117,18 +154,9 @@ fn a_farm_builds_the_samples_as_this_machine_does_and_a_rebuild_runs_nothing() {
         assert_eq!(ran(&out, stage), 2, "{stage}:\n{log}");
         assert_eq!(remote(&out, stage), 2, "{stage} ran here:\n{log}");
     }
-    let line = execution_line(&out);
-    let all_there = format!("remote execution {}: 16 job(s) ran there (", farm.url);
-    assert!(line.starts_with(&all_there), "{log}");
+    assert!(all_ran_there(&out, &farm, 16), "{log}");
     assert!(!log.contains("warning"), "{log}");
-
-    let local = build(&p, "local", None);
-    ok(&local);
-    same_release(
-        &tree(&p.path("out-farm")),
-        &tree(&p.path("out-local")),
-        "farm and local builds",
-    );
+    same_as_a_local_build(&p, "farm", "farm and local builds");
 
     let again = build(&p, "farm", Some(&farm));
     let log = ok(&again);
@@ -143,11 +171,7 @@ fn a_farm_builds_the_samples_as_this_machine_does_and_a_rebuild_runs_nothing() {
 fn a_farm_that_goes_away_leaves_the_rest_of_the_build_to_this_machine() {
     let p = Project::new(&SAMPLES);
     let mut farm = farm(1);
-    let child = build_command(&p, "farm", Some(&farm))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn_farm_build(&p, &farm);
     // Kill the server once the builder has a job back from the farm.
     let (out, log) = watch(child, |line| {
         if line.contains("ran remotely") {
@@ -155,10 +179,7 @@ fn a_farm_that_goes_away_leaves_the_rest_of_the_build_to_this_machine() {
         }
     });
     ok(&out);
-    let warnings: Vec<&str> = log
-        .lines()
-        .filter(|l| l.starts_with("warning: remote execution "))
-        .collect();
+    let warnings = execution_warnings(&log);
     assert_eq!(warnings.len(), 1, "{log}");
     assert!(
         warnings[0].ends_with("the remaining jobs run here"),
@@ -168,26 +189,16 @@ fn a_farm_that_goes_away_leaves_the_rest_of_the_build_to_this_machine() {
         execution_line(&out).contains("unavailable during the build, the rest was built here"),
         "{log}"
     );
-    let remote_jobs: usize = STAGES.iter().map(|s| remote(&out, s)).sum();
-    assert!((1..16).contains(&remote_jobs), "{log}");
+    assert!((1..16).contains(&remote_jobs(&out)), "{log}");
 
-    ok(&build(&p, "local", None));
-    same_release(
-        &tree(&p.path("out-farm")),
-        &tree(&p.path("out-local")),
-        "half-farm and local builds",
-    );
+    same_as_a_local_build(&p, "farm", "half-farm and local builds");
 }
 
 #[test]
 fn a_job_whose_worker_dies_runs_again_on_another() {
     let p = Project::new(&SAMPLES);
     let mut farm = farm(2);
-    let child = build_command(&p, "farm", Some(&farm))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn_farm_build(&p, &farm);
     // The first lease a worker starts: kill that worker while it runs it.
     let started = Instant::now();
     let (victim, lease) = loop {
@@ -213,9 +224,7 @@ fn a_job_whose_worker_dies_runs_again_on_another() {
     let out = child.wait_with_output().unwrap();
     let log = ok(&out);
     // Every job ran on the farm: the lost one again, on the other worker.
-    let line = execution_line(&out);
-    let all_there = format!("remote execution {}: 16 job(s) ran there (", farm.url);
-    assert!(line.starts_with(&all_there), "{log}");
+    assert!(all_ran_there(&out, &farm, 16), "{log}");
     let other = farm.worker_log(1 - victim);
     assert!(
         other.contains(&format!("{lease}: running"))
@@ -228,12 +237,7 @@ fn a_job_whose_worker_dies_runs_again_on_another() {
             .contains(&format!("{lease}: finished"))
     );
 
-    ok(&build(&p, "local", None));
-    same_release(
-        &tree(&p.path("out-farm")),
-        &tree(&p.path("out-local")),
-        "farm (one worker lost) and local builds",
-    );
+    same_as_a_local_build(&p, "farm", "farm (one worker lost) and local builds");
 }
 
 #[test]
@@ -255,21 +259,16 @@ fn a_farm_that_wants_a_token_runs_the_jobs_of_a_builder_that_has_it_and_refuses_
         .output()
         .unwrap();
     let log = ok(&with_token);
-    let line = execution_line(&with_token);
-    let all_there = format!("remote execution {}: 8 job(s) ran there (", farm.url);
-    assert!(line.starts_with(&all_there), "{log}");
+    assert!(all_ran_there(&with_token, &farm, 8), "{log}");
     assert!(!log.contains("warning"), "{log}");
 
     // Without it: refused at the first job, one warning, and the build is made here.
     let without = build(&p, "none", Some(&farm));
     let log = ok(&without);
-    let warnings: Vec<&str> = log
-        .lines()
-        .filter(|l| l.starts_with("warning: remote execution "))
-        .collect();
+    let warnings = execution_warnings(&log);
     assert_eq!(warnings.len(), 1, "{log}");
     assert!(warnings[0].contains("Unauthenticated"), "{log}");
-    assert_eq!(STAGES.iter().map(|s| remote(&without, s)).sum::<usize>(), 0);
+    assert_eq!(remote_jobs(&without), 0);
     same_release(
         &tree(&p.path("out-token")),
         &tree(&p.path("out-none")),

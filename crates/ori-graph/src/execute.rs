@@ -71,6 +71,23 @@ impl std::fmt::Debug for RemoteExecution {
     }
 }
 
+/// Why the outputs an executor gave for `job` cannot be its result, if they cannot: an output
+/// name that is not a plain name, or a file the stage read that is not the one sent.
+fn unbelievable(job: &ActionJob, done: &ActionOutputs) -> Option<String> {
+    if let Some(name) = done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
+        return Some(format!("it returned an output named `{name}`"));
+    }
+    done.left.discovered.iter().find_map(|f| {
+        let why = match job.files.get(&f.path) {
+            Some(sent) if *sent == f.hash => return None,
+            None => "which was not sent",
+            Some(None) => "which was sent as absent",
+            Some(Some(_)) => "with other bytes than were sent",
+        };
+        Some(format!("it read `{}`, {why}", f.path))
+    })
+}
+
 impl RemoteExecution {
     /// An executor whose actions carry `settings` (see [`ActionJob::settings`]).
     pub fn new(executor: Box<dyn Executor>, settings: serde_json::Value) -> RemoteExecution {
@@ -129,27 +146,13 @@ impl RemoteExecution {
         }
         let failed = match self.executor.execute(job, read) {
             Ok(done) if !done.left.wanted.is_empty() => return Some(done),
-            Ok(done) => {
-                let unsent = done.left.discovered.iter().find_map(|f| {
-                    let why = match job.files.get(&f.path) {
-                        Some(sent) if *sent == f.hash => return None,
-                        None => "which was not sent",
-                        Some(None) => "which was sent as absent",
-                        Some(Some(_)) => "with other bytes than were sent",
-                    };
-                    Some(format!("it read `{}`, {why}", f.path))
-                });
-                match done.outputs.keys().find(|n| !ActionJob::is_output_name(n)) {
-                    Some(name) => format!("it returned an output named `{name}`"),
-                    None => match unsent {
-                        Some(why) => why,
-                        None => {
-                            self.executed.fetch_add(1, Ordering::Relaxed);
-                            return Some(done);
-                        }
-                    },
+            Ok(done) => match unbelievable(job, &done) {
+                Some(why) => why,
+                None => {
+                    self.executed.fetch_add(1, Ordering::Relaxed);
+                    return Some(done);
                 }
-            }
+            },
             Err(ExecuteError::Failed(why)) => why,
             Err(ExecuteError::Unavailable(why)) => {
                 self.fell_back.fetch_add(1, Ordering::Relaxed);

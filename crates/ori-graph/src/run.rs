@@ -596,9 +596,23 @@ impl<'g> Exec<'g> {
         reader: &JobReader<'_>,
         inputs: &[(String, ContentHash)],
     ) -> Option<ActionOutputs> {
+        if remote.is_gone() {
+            return None;
+        }
         let mut action = ActionJob::of(reader.job, inputs)?;
         action.settings = remote.settings().clone();
-        let mut files: HashMap<ContentHash, Vec<u8>> = HashMap::new();
+        // Every blob sent, by hash: the inputs, read once for all the rounds, and the
+        // discovered files as they are sent.
+        let mut blobs: HashMap<ContentHash, Vec<u8>> = HashMap::new();
+        for (name, hash) in &action.inputs {
+            match reader.input(name) {
+                Ok(bytes) => blobs.insert(*hash, bytes),
+                Err(e) => {
+                    remote.decline(&action, &e.to_string(), self.observer);
+                    return None;
+                }
+            };
+        }
         // The files its last run read are likely to be read again: they go with the first
         // round (a rebuild after an edit then takes one).
         let local = self.store.local();
@@ -606,19 +620,15 @@ impl<'g> Exec<'g> {
             .read_record(&identity(reader.job))
             .and_then(|record| local.read_action(&record.key).ok());
         for file in last.map(|entry| entry.discovered).unwrap_or_default() {
-            if send_discovered(reader, &mut action, &mut files, file.path).is_err() {
+            if send_discovered(reader, &mut action, &mut blobs, file.path).is_err() {
                 break;
             }
         }
         for _ in 0..MAX_ACTION_ROUNDS {
-            let read = |hash: &ContentHash| match files.get(hash) {
-                Some(bytes) => Ok(bytes.clone()),
-                None => {
-                    let (name, _) = inputs.iter().find(|(_, h)| h == hash).ok_or_else(|| {
-                        StageError::Plan(format!("no input has the hash {}", hash.short()))
-                    })?;
-                    reader.input(name)
-                }
+            let read = |hash: &ContentHash| {
+                blobs.get(hash).cloned().ok_or_else(|| {
+                    StageError::Plan(format!("no blob sent has the hash {}", hash.short()))
+                })
             };
             let done = remote.try_execute(&action, &read, self.observer)?;
             if done.left.wanted.is_empty() {
@@ -627,7 +637,7 @@ impl<'g> Exec<'g> {
             for relative in done.left.wanted {
                 let sent = match action.files.contains_key(&relative) {
                     true => Err(format!("it asked again for `{relative}`, which was sent")),
-                    false => send_discovered(reader, &mut action, &mut files, relative),
+                    false => send_discovered(reader, &mut action, &mut blobs, relative),
                 };
                 if let Err(why) = sent {
                     remote.decline(&action, &why, self.observer);
@@ -731,11 +741,11 @@ fn param_changes(old: &serde_json::Value, new: &serde_json::Value) -> Vec<String
 }
 
 /// Read the discovered file `relative` here to send it with `action` (its bytes go in
-/// `files`), or say it is not there; the error says why it cannot be sent.
+/// `blobs`), or say it is not there; the error says why it cannot be sent.
 fn send_discovered(
     reader: &JobReader<'_>,
     action: &mut ActionJob,
-    files: &mut HashMap<ContentHash, Vec<u8>>,
+    blobs: &mut HashMap<ContentHash, Vec<u8>>,
     relative: String,
 ) -> Result<(), String> {
     if action.files.len() >= MAX_ACTION_FILES {
@@ -745,7 +755,7 @@ fn send_discovered(
         Ok(bytes) => {
             let hash = ContentHash::of(&bytes);
             action.files.insert(relative, Some(hash));
-            files.insert(hash, bytes);
+            blobs.insert(hash, bytes);
         }
         Err(e) if e.kind() == io::ErrorKind::NotFound => {
             action.files.insert(relative, None);

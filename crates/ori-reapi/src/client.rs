@@ -72,6 +72,32 @@ impl From<Status> for Error {
     }
 }
 
+/// Whether a blob of `size` bytes fits a batch of `limit` bytes with its framing.
+fn fits(size: u64, limit: u64) -> bool {
+    size.saturating_add(ENTRY_OVERHEAD) <= limit
+}
+
+/// The indices of blobs of `sizes`, in order, grouped into batches whose sizes (each with its
+/// framing) add up to at most `limit`; a blob too large for that is a batch of its own.
+pub(crate) fn batches(sizes: &[u64], limit: u64) -> Vec<Vec<usize>> {
+    let mut batches: Vec<Vec<usize>> = Vec::new();
+    let mut batch_bytes = 0u64;
+    for (k, &size) in sizes.iter().enumerate() {
+        let framed = size.saturating_add(ENTRY_OVERHEAD);
+        match batches.last_mut() {
+            Some(batch) if batch_bytes.saturating_add(framed) <= limit && fits(size, limit) => {
+                batch.push(k);
+                batch_bytes += framed;
+            }
+            _ => {
+                batches.push(vec![k]);
+                batch_bytes = framed;
+            }
+        }
+    }
+    batches
+}
+
 /// Where the server is and how to talk to it.
 #[derive(Clone, Debug)]
 pub struct Settings {
@@ -262,30 +288,17 @@ impl Client {
     /// Store these blobs, whether or not the server has them.
     pub fn upload(&self, blobs: &[(Digest, &[u8])]) -> Result<(), Error> {
         let limit = self.batch_limit().saturating_sub(BATCH_OVERHEAD);
-        let (large, small): (Vec<_>, Vec<_>) = blobs
-            .iter()
-            .partition(|(_, bytes)| bytes.len() as u64 > limit);
-        for (digest, bytes) in large {
-            self.write(digest, bytes)?;
-        }
-        let mut batch = Vec::new();
-        let mut batch_bytes = 0u64;
-        for blob in small {
-            let size = blob.1.len() as u64 + ENTRY_OVERHEAD;
-            if batch_bytes + size > limit {
-                self.batch_upload(&std::mem::take(&mut batch))?;
-                batch_bytes = 0;
+        let sizes: Vec<u64> = blobs.iter().map(|(_, b)| b.len() as u64).collect();
+        for batch in batches(&sizes, limit) {
+            match batch[..] {
+                [k] if !fits(sizes[k], limit) => self.write(&blobs[k].0, blobs[k].1)?,
+                _ => self.batch_upload(&batch.iter().map(|&k| &blobs[k]).collect::<Vec<_>>())?,
             }
-            batch_bytes += size;
-            batch.push(blob);
         }
-        self.batch_upload(&batch)
+        Ok(())
     }
 
     fn batch_upload(&self, blobs: &[&(Digest, &[u8])]) -> Result<(), Error> {
-        if blobs.is_empty() {
-            return Ok(());
-        }
         let responses = self.call(async {
             let mut client = ContentAddressableStorageClient::new(self.channel.clone());
             let request = self.request(BatchUpdateBlobsRequest {
@@ -363,10 +376,8 @@ impl Client {
     /// allows (one request for a job's few outputs), large ones by ByteStream.
     pub fn download_many(&self, digests: &[Digest], limit: u64) -> Result<Vec<Vec<u8>>, Error> {
         let batch_limit = self.batch_limit().saturating_sub(BATCH_OVERHEAD);
-        let mut blobs: Vec<Option<Vec<u8>>> = vec![None; digests.len()];
-        let mut batch: Vec<usize> = Vec::new();
-        let mut batch_bytes = 0u64;
-        for (k, digest) in digests.iter().enumerate() {
+        let mut sizes = Vec::with_capacity(digests.len());
+        for digest in digests {
             let size = u64::try_from(digest.size_bytes)
                 .map_err(|_| Error::Failed(format!("blob {}: negative size", digest.hash)))?;
             if size > limit {
@@ -375,18 +386,17 @@ impl Client {
                     digest.hash
                 )));
             }
-            if size + ENTRY_OVERHEAD > batch_limit {
-                blobs[k] = Some(self.read(digest, size)?);
-                continue;
-            }
-            if batch_bytes + size + ENTRY_OVERHEAD > batch_limit {
-                self.batch_read(digests, &std::mem::take(&mut batch), &mut blobs)?;
-                batch_bytes = 0;
-            }
-            batch_bytes += size + ENTRY_OVERHEAD;
-            batch.push(k);
+            sizes.push(size);
         }
-        self.batch_read(digests, &batch, &mut blobs)?;
+        let mut blobs: Vec<Option<Vec<u8>>> = vec![None; digests.len()];
+        for batch in batches(&sizes, batch_limit) {
+            match batch[..] {
+                [k] if !fits(sizes[k], batch_limit) => {
+                    blobs[k] = Some(self.read(&digests[k], sizes[k])?);
+                }
+                _ => self.batch_read(digests, &batch, &mut blobs)?,
+            }
+        }
         digests
             .iter()
             .zip(blobs)
@@ -410,9 +420,6 @@ impl Client {
         batch: &[usize],
         blobs: &mut [Option<Vec<u8>>],
     ) -> Result<(), Error> {
-        if batch.is_empty() {
-            return Ok(());
-        }
         let responses = self.call(async {
             let mut client = ContentAddressableStorageClient::new(self.channel.clone());
             let request = self.request(BatchReadBlobsRequest {
@@ -590,4 +597,21 @@ fn now_nanos() -> u128 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_nanos())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blobs_are_batched_in_order_under_the_limit_and_large_ones_go_alone() {
+        // Each blob counts its framing: two of 10 bytes fit 400, a third does not.
+        let sizes = [10, 10, 10, 5000, 10];
+        assert_eq!(
+            batches(&sizes, 400),
+            [vec![0, 1], vec![2], vec![3], vec![4]]
+        );
+        assert_eq!(batches(&sizes, 1 << 20), [vec![0, 1, 2, 3, 4]]);
+        assert!(batches(&[], 400).is_empty());
+    }
 }

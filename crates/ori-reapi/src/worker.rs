@@ -622,55 +622,49 @@ fn lay_out(
     let mut fetched: Vec<(PathBuf, Option<&str>)> = Vec::new();
     let mut digests = Vec::new();
     let mut named = std::collections::HashSet::new();
-    for file in &directory.files {
-        let name = component(&file.name).map_err(LeaseError::invalid)?;
-        let digest = file
-            .digest
+    let files = directory.files.iter().map(|f| {
+        let kind = if f.is_executable {
+            Kind::Program
+        } else {
+            Kind::File
+        };
+        (&f.name, &f.digest, kind)
+    });
+    let folders = (directory.directories.iter()).map(|d| (&d.name, &d.digest, Kind::Folder));
+    for (name, digest, kind) in files.chain(folders) {
+        let name = component(name).map_err(LeaseError::invalid)?;
+        let digest = digest
             .as_ref()
             .ok_or_else(|| LeaseError::invalid(format!("{name}: no digest")))?;
         if !named.insert(name) {
             return Err(LeaseError::invalid(format!("`{name}` is named twice")));
         }
         let path = dir.join(name);
-        if file.is_executable {
-            place_program(client, tools, digest, &path, linked)?;
-        } else {
-            fetched.push((path, None));
-            digests.push(digest.clone());
-        }
-    }
-    for sub in &directory.directories {
-        let name = component(&sub.name).map_err(LeaseError::invalid)?;
-        let digest = sub
-            .digest
-            .as_ref()
-            .ok_or_else(|| LeaseError::invalid(format!("{name}: no digest")))?;
-        if !named.insert(name) {
-            return Err(LeaseError::invalid(format!("`{name}` is named twice")));
-        }
-        if u64::try_from(digest.size_bytes).map_or(true, |n| n > MAX_MESSAGE_BYTES) {
-            return Err(LeaseError::invalid(format!(
-                "{name}: its listing is too large"
-            )));
-        }
-        fetched.push((dir.join(name), Some(name)));
-        digests.push(digest.clone());
-    }
-    let mut start = 0;
-    while start < digests.len() {
-        let mut end = start + 1;
-        let mut bytes = digests[start].size_bytes.max(0) as u64;
-        while end < digests.len() {
-            bytes = bytes.saturating_add(digests[end].size_bytes.max(0) as u64);
-            if bytes > FETCH_GROUP_BYTES {
-                break;
+        match kind {
+            Kind::Program => place_program(client, tools, digest, &path, linked)?,
+            Kind::File => {
+                fetched.push((path, None));
+                digests.push(digest.clone());
             }
-            end += 1;
+            Kind::Folder => {
+                if u64::try_from(digest.size_bytes).map_or(true, |n| n > MAX_MESSAGE_BYTES) {
+                    return Err(LeaseError::invalid(format!(
+                        "{name}: its listing is too large"
+                    )));
+                }
+                fetched.push((path, Some(name)));
+                digests.push(digest.clone());
+            }
         }
+    }
+    let sizes: Vec<u64> = digests.iter().map(|d| d.size_bytes.max(0) as u64).collect();
+    for group in crate::client::batches(&sizes, FETCH_GROUP_BYTES) {
+        let wanted: Vec<Digest> = group.iter().map(|&k| digests[k].clone()).collect();
         let blobs = client
-            .download_many(&digests[start..end], MAX_BLOB_BYTES)
-            .map_err(|e| format!("{}: {e}", fetched[start].0.display()))?;
-        for ((path, folder), bytes) in fetched[start..end].iter().zip(blobs) {
+            .download_many(&wanted, MAX_BLOB_BYTES)
+            .map_err(|e| format!("{}: {e}", fetched[group[0]].0.display()))?;
+        for (&k, bytes) in group.iter().zip(blobs) {
+            let (path, folder) = &fetched[k];
             let Some(name) = folder else {
                 std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))?;
                 continue;
@@ -680,7 +674,6 @@ fn lay_out(
                 .map_err(|e| LeaseError::invalid(format!("{name}: {e}")))?;
             lay_out(client, tools, &child, path, linked, depth + 1, entries)?;
         }
-        start = end;
     }
     Ok(())
 }
@@ -688,6 +681,13 @@ fn lay_out(
 /// The most bytes of a folder's files fetched before they are written (one larger file is
 /// fetched alone).
 const FETCH_GROUP_BYTES: u64 = 4 << 20;
+
+/// What an entry of an input root folder is.
+enum Kind {
+    File,
+    Program,
+    Folder,
+}
 
 /// One name of an input root: a single path component that stays in its folder.
 fn component(name: &str) -> Result<&str, String> {
