@@ -18,6 +18,9 @@ use crate::hash::ContentHash;
 use crate::job::{Input, JobSpec};
 use crate::stage::{JobContext, JobInputs, Stage, StageError};
 
+/// The most discovered files sent with one job.
+pub const MAX_FILES: usize = 1024;
+
 /// The description's file name, in the action's folder.
 pub const JOB_FILE: &str = "job.json";
 /// The folder of the input blobs, each named by its content hash (hex).
@@ -113,6 +116,10 @@ pub struct ActionLeft {
     /// again with them, and nothing else it left is its result.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub wanted: Vec<String>,
+    /// With `wanted`: files not sent that the stage said it may read next
+    /// ([`JobContext::reads_ahead`]); sent with them where they can be.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ahead: Vec<String>,
 }
 
 /// What running an action gave.
@@ -142,15 +149,18 @@ pub fn run_action(
         job,
         read,
         wanted: RefCell::new(Vec::new()),
+        ahead: RefCell::new(BTreeSet::new()),
     };
     let mut ctx = JobContext::new(&job.asset, &job.params, &inputs);
     let ran = crate::stage::run_catching(stage, &mut ctx);
     let left = ctx.finish();
     let wanted = inputs.wanted.into_inner();
     if !wanted.is_empty() {
+        let ahead = inputs.ahead.into_inner();
         return Ok(ActionOutputs {
             outputs: BTreeMap::new(),
             left: ActionLeft {
+                ahead: ahead.into_iter().filter(|a| !wanted.contains(a)).collect(),
                 wanted,
                 ..ActionLeft::default()
             },
@@ -168,7 +178,7 @@ pub fn run_action(
         left: ActionLeft {
             warnings: left.warnings,
             discovered: left.discovered,
-            wanted: Vec::new(),
+            ..ActionLeft::default()
         },
     })
 }
@@ -178,6 +188,9 @@ struct ActionInputs<'a> {
     read: &'a dyn Fn(&ContentHash) -> io::Result<Vec<u8>>,
     /// Discovered files asked for but not sent.
     wanted: RefCell<Vec<String>>,
+    /// Discovered files the stage may read next that were not sent (no more than a job is
+    /// ever sent).
+    ahead: RefCell<BTreeSet<String>>,
 }
 
 impl JobInputs for ActionInputs<'_> {
@@ -240,6 +253,18 @@ impl JobInputs for ActionInputs<'_> {
                 Err(io::Error::other(format!(
                     "{relative}: not sent with the action"
                 )))
+            }
+        }
+    }
+
+    fn reads_ahead(&self, relatives: &[String]) {
+        let mut ahead = self.ahead.borrow_mut();
+        for relative in relatives {
+            if ahead.len() >= MAX_FILES {
+                break;
+            }
+            if !self.job.files.contains_key(relative) {
+                ahead.insert(relative.clone());
             }
         }
     }

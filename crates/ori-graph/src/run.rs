@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::action::{ActionJob, ActionOutputs};
+use crate::action::{ActionJob, ActionOutputs, MAX_FILES};
 use crate::cache::{ActionEntry, Cache, JobRecord, ReadError};
 use crate::execute::RemoteExecution;
 use crate::hash::{ContentHash, canonical_json, job_key};
@@ -46,10 +46,8 @@ pub struct RunOptions {
 /// The most worker threads a run starts, whatever it is asked for.
 pub const MAX_THREADS: usize = 256;
 /// The most times a job is sent to the remote executor for the files its stage discovers
-/// (a model's buffers and images are usually asked for one at a time).
+/// (a glTF's files are asked for together, an OBJ's libraries and then each one's textures).
 const MAX_ACTION_ROUNDS: usize = 32;
-/// The most discovered files sent with one job.
-const MAX_ACTION_FILES: usize = 1024;
 
 /// Jobs run and reused, and time spent, for one stage.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -644,6 +642,13 @@ impl<'g> Exec<'g> {
                     return None;
                 }
             }
+            // What it may read next goes too, where it can: one it cannot be sent is asked
+            // for by name if the stage reads it, and then refused as above.
+            for relative in done.left.ahead {
+                if !action.files.contains_key(&relative) {
+                    let _ = send_discovered(reader, &mut action, &mut blobs, relative);
+                }
+            }
         }
         let why = format!("it still asked for files after {MAX_ACTION_ROUNDS} rounds");
         remote.decline(&action, &why, self.observer);
@@ -748,8 +753,8 @@ fn send_discovered(
     blobs: &mut HashMap<ContentHash, Vec<u8>>,
     relative: String,
 ) -> Result<(), String> {
-    if action.files.len() >= MAX_ACTION_FILES {
-        return Err(format!("it asked for more than {MAX_ACTION_FILES} files"));
+    if action.files.len() >= MAX_FILES {
+        return Err(format!("it asked for more than {MAX_FILES} files"));
     }
     match reader.read_discovered(&relative) {
         Ok(bytes) => {

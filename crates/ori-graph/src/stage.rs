@@ -124,6 +124,10 @@ pub(crate) trait JobInputs {
     fn input_hash(&self, name: &str) -> Option<ContentHash>;
     fn input(&self, name: &str) -> Result<Vec<u8>, StageError>;
     fn read_discovered(&self, relative: &str) -> io::Result<Vec<u8>>;
+    /// Discovered files the stage may read next ([`JobContext::reads_ahead`]).
+    fn reads_ahead(&self, relatives: &[String]) {
+        let _ = relatives;
+    }
 }
 
 /// What a stage left when it finished: its outputs, the files it discovered, its warnings.
@@ -208,6 +212,15 @@ impl<'a> JobContext<'a> {
             self.left.discovered.push(record);
         }
         result
+    }
+
+    /// Say which discovered files the stage may read next, before it reads any of them (a
+    /// glTF's buffers and images, once its JSON is parsed). Here it changes nothing; on a
+    /// remote-execution farm, a job that stops for a file that was not sent is sent these
+    /// with it, so a model's files take one round instead of one each. Nothing is recorded:
+    /// only what is read is.
+    pub fn reads_ahead(&mut self, relatives: &[String]) {
+        self.inputs.reads_ahead(relatives);
     }
 
     /// Store a named output.

@@ -39,9 +39,16 @@ impl Stage for Upper {
         if ctx.params()["trim"] == json!(true) {
             out = out.trim().to_string();
         }
-        // Optional include file, discovered while running.
-        if let Ok(extra) = ctx.read_discovered("include.txt") {
-            out.push_str(&String::from_utf8_lossy(&extra));
+        // Optional include files, discovered while running, named before either is read;
+        // as a model loader would, it reads no further after one it cannot read.
+        let includes = ["include.txt", "second.txt"].map(String::from);
+        ctx.reads_ahead(&includes);
+        for include in &includes {
+            match ctx.read_discovered(include) {
+                Ok(extra) => out.push_str(&String::from_utf8_lossy(&extra)),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+                Err(_) => break,
+            }
         }
         ctx.output("text", out.into_bytes());
         Ok(())
@@ -486,6 +493,7 @@ impl Executor for InProcessFarm {
 fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds() {
     let fx = Fixture::new();
     fs::write(fx.root.join("a/include.txt"), "+inc").unwrap();
+    fs::write(fx.root.join("a/second.txt"), "+2").unwrap();
     let (graph, ids) = fx.graph(&defaults);
     let farm = Arc::new(RemoteExecution::new(
         Box::new(InProcessFarm::new(&fx, false)),
@@ -502,13 +510,14 @@ fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds
     let b = remote_build(&fx.cache);
     assert!(b.succeeded());
     // Every job ran there (the farm runs the same stages, so their counts are the farm's):
-    // each `upper` twice, the second time sent `include.txt` or told it is not there.
+    // each `upper` twice: first asking for `include.txt` and naming `second.txt` as read
+    // next, then sent both (or told they are not there).
     assert_eq!(fx.runs(), (6, 3));
     assert_eq!((farm.executed(), farm.fell_back()), (6, 0));
     for (u, c) in &ids {
         assert!(b.result(*u).ran_remotely && b.result(*c).ran_remotely);
     }
-    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+inc");
+    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+inc+2");
     let local_cache = Cache::open(fx.root.join("local-cache")).unwrap();
     let local = run(&graph, &local_cache, &RunOptions::default(), &Silent);
     fx.runs();
@@ -526,7 +535,7 @@ fn a_farm_is_sent_the_files_a_stage_discovers_and_its_results_are_a_local_builds
         outcome(&b, ids[0].0),
         Outcome::Ran(RunReason::Discovered(_))
     ));
-    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+INC");
+    assert_eq!(b.read_output(ids[0].0, "text").unwrap(), b"ASSET A+INC+2");
     assert_eq!(fx.runs(), (1, 1));
     assert_eq!((farm.executed(), farm.fell_back()), (8, 0));
 }

@@ -124,6 +124,30 @@ fn load_document(
         .map_err(|e| corrupt(format!("invalid glTF JSON: {e}")))?;
     check_geometry_extensions(&raw)?;
     let document = parse_document(json, &raw, warnings)?;
+    let buffer_uris = document.buffers().filter_map(|b| match b.source() {
+        Source::Uri(uri) => Some(uri),
+        Source::Bin => None,
+    });
+    // The images of base colour textures, the only ones read (their JSON directly: see
+    // `Loader::decode_image`).
+    let images = &document.as_json().images;
+    let image_uris = document
+        .materials()
+        .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
+        .filter_map(|info| images.get(info.texture().source().index()))
+        .filter_map(|i| match i.buffer_view {
+            Some(_) => None,
+            None => i.uri.as_deref(),
+        });
+    let mut seen = HashSet::new();
+    let files: Vec<String> = buffer_uris
+        .chain(image_uris)
+        .filter_map(file_name)
+        .filter(|name| seen.insert(name.clone()))
+        .collect();
+    if !files.is_empty() {
+        resolver.ahead(&files);
+    }
     let mut buffers = load_buffers(&document, &raw, blob, resolver)?;
     decode_meshopt_views(&document, &raw, &mut buffers)?;
     let draws = scene_draws(&document, warnings)?;
@@ -524,11 +548,19 @@ fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind
             Ok(percent_decode(payload))
         };
     }
-    let name = String::from_utf8_lossy(&percent_decode(uri)).into_owned();
-    resolver(&name).map_err(|source| ErrorKind::MissingExternal {
-        uri: uri.to_string(),
-        source,
-    })
+    let name = file_name(uri).expect("not a data URI");
+    resolver
+        .read(&name)
+        .map_err(|source| ErrorKind::MissingExternal {
+            uri: uri.to_string(),
+            source,
+        })
+}
+
+/// The file a URI names, as the resolver is asked for it (percent-decoded); `None` for a
+/// `data:` URI.
+fn file_name(uri: &str) -> Option<String> {
+    (!uri.starts_with("data:")).then(|| String::from_utf8_lossy(&percent_decode(uri)).into_owned())
 }
 
 /// Decodes `%XX` escapes; anything else, malformed escapes included, passes through.

@@ -202,9 +202,30 @@ pub struct Loaded {
     pub warnings: Vec<String>,
 }
 
-/// Reads a file referenced by a model, given the reference exactly as written in the model
-/// (relative references are relative to the model's folder).
-pub type Resolver<'a> = dyn FnMut(&str) -> io::Result<Vec<u8>> + 'a;
+/// Where the files a model references come from (a glTF's buffers and images, an OBJ's
+/// material libraries and their textures). Any `FnMut(&str) -> io::Result<Vec<u8>>` is one.
+pub trait Files {
+    /// The file referenced as `reference`, exactly as written in the model (relative
+    /// references are relative to the model's folder).
+    fn read(&mut self, reference: &str) -> io::Result<Vec<u8>>;
+
+    /// Called before the loader reads any of `references`: the files it may read next (a
+    /// glTF's external buffers and images once its JSON is parsed, a material library's
+    /// textures once it is parsed), so that a reader which fetches files from elsewhere can
+    /// fetch them together. Some may never be read (an image no material uses).
+    fn ahead(&mut self, references: &[String]) {
+        let _ = references;
+    }
+}
+
+impl<F: FnMut(&str) -> io::Result<Vec<u8>>> Files for F {
+    fn read(&mut self, reference: &str) -> io::Result<Vec<u8>> {
+        self(reference)
+    }
+}
+
+/// The files of one model load.
+pub type Resolver<'a> = dyn Files + 'a;
 
 /// Load a model from disk, reading referenced files relative to its folder.
 pub fn load_file(path: &Path, options: &LoadOptions) -> Result<Loaded, MeshError> {

@@ -433,7 +433,7 @@ impl Library {
         if self.loaded.contains(&reference) {
             return Ok(());
         }
-        let bytes = resolver(&reference).map_err(|source| {
+        let bytes = resolver.read(&reference).map_err(|source| {
             ErrorKind::MissingExternal {
                 uri: reference.clone(),
                 source,
@@ -444,6 +444,17 @@ impl Library {
         let index = self.files.len();
         parse_mtl(&bytes, &reference, index, &mut self.definitions, warnings)
             .map_err(|kind| kind.in_file(&file))?;
+        let mut textures: Vec<String> = self
+            .definitions
+            .values()
+            .filter(|d| d.file == index)
+            .filter_map(|d| d.texture.clone())
+            .collect();
+        textures.sort_unstable();
+        textures.dedup();
+        if !textures.is_empty() {
+            resolver.ahead(&textures);
+        }
         self.files.push(file);
         self.loaded.push(reference);
         Ok(())
@@ -518,7 +529,7 @@ impl Library {
             return Ok(index);
         }
         let mtl = &self.files[file];
-        let bytes = resolver(reference).map_err(|source| {
+        let bytes = resolver.read(reference).map_err(|source| {
             ErrorKind::MissingExternal {
                 uri: reference.to_string(),
                 source,

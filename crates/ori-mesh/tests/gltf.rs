@@ -212,6 +212,58 @@ fn duck_has_its_base_colour_texture() {
     assert!(mesh.uvs.is_some());
 }
 
+/// Records what the loader says it will read and what it reads, in order.
+struct Recorder {
+    dir: PathBuf,
+    events: Vec<String>,
+}
+
+impl ori_mesh::Files for Recorder {
+    fn read(&mut self, reference: &str) -> std::io::Result<Vec<u8>> {
+        self.events.push(format!("read {reference}"));
+        std::fs::read(self.dir.join(reference))
+    }
+    fn ahead(&mut self, references: &[String]) {
+        self.events.push(format!("ahead {}", references.join(", ")));
+    }
+}
+
+#[test]
+fn the_loader_names_the_files_it_will_read_before_reading_them() {
+    // Avocado: one buffer and three images, of which only the base colour one is read.
+    let path = model_path("gltf/Avocado/glTF/Avocado.gltf");
+    let mut files = Recorder {
+        dir: path.parent().unwrap().to_path_buf(),
+        events: Vec::new(),
+    };
+    let bytes = std::fs::read(&path).unwrap();
+    load(&path, &bytes, &LoadOptions::default(), &mut files).unwrap();
+    assert_eq!(
+        files.events,
+        [
+            "ahead Avocado.bin, Avocado_baseColor.png",
+            "read Avocado.bin",
+            "read Avocado_baseColor.png"
+        ]
+    );
+    // A percent-encoded name is announced as it is read; a data URI is not a file.
+    let (json, bin) = external_buffer_doc("my%20mesh.bin");
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("my mesh.bin"), &bin).unwrap();
+    let mut files = Recorder {
+        dir: dir.path().to_path_buf(),
+        events: Vec::new(),
+    };
+    load(
+        Path::new("a.gltf"),
+        json.as_bytes(),
+        &LoadOptions::default(),
+        &mut files,
+    )
+    .unwrap();
+    assert_eq!(files.events, ["ahead my mesh.bin", "read my mesh.bin"]);
+}
+
 #[test]
 fn avocado_reads_only_its_buffer_and_base_colour_image() {
     let path = model_path("gltf/Avocado/glTF/Avocado.gltf");

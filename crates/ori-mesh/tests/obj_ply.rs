@@ -325,6 +325,41 @@ fn obj_texture_is_loaded_once_and_only_for_used_materials() {
 }
 
 #[test]
+fn obj_library_names_its_textures_before_any_is_read() {
+    struct Recorder<'a>(&'a [(&'a str, &'a [u8])], Vec<String>);
+    impl ori_mesh::Files for Recorder<'_> {
+        fn read(&mut self, reference: &str) -> std::io::Result<Vec<u8>> {
+            self.1.push(format!("read {reference}"));
+            let found = self.0.iter().find(|(n, _)| *n == reference);
+            found
+                .map(|(_, b)| b.to_vec())
+                .ok_or_else(|| std::io::ErrorKind::NotFound.into())
+        }
+        fn ahead(&mut self, references: &[String]) {
+            self.1.push(format!("ahead {}", references.join(", ")));
+        }
+    }
+    let obj = format!("mtllib m.mtl\n{QUAD}usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n");
+    let mtl = "newmtl a\nmap_Kd t.png\nnewmtl b\nmap_Kd t.png\nnewmtl unused\nmap_Kd gone.png\n";
+    let png = png();
+    let files: &[(&str, &[u8])] = &[("m.mtl", mtl.as_bytes()), ("t.png", &png)];
+    let mut recorder = Recorder(files, Vec::new());
+    let options = LoadOptions::default();
+    ori_mesh::load(
+        Path::new("model.obj"),
+        obj.as_bytes(),
+        &options,
+        &mut recorder,
+    )
+    .unwrap();
+    // (The unused material's texture is named too: which are used is known only later.)
+    assert_eq!(
+        recorder.1,
+        ["read m.mtl", "ahead gone.png, t.png", "read t.png"]
+    );
+}
+
+#[test]
 fn obj_texture_in_another_format_is_dropped_with_a_warning() {
     let obj = format!("mtllib m.mtl\n{QUAD}usemtl a\nf 1 2 3\n");
     let mtl = "newmtl a\nKd 1 0 0\nmap_Kd t.dds\n";

@@ -103,16 +103,27 @@ impl PipelineStage for Ingest {
             recompute_normals: params.ingest.recompute_normals,
             limits: self.limits,
         };
-        let loaded = ori_mesh::load(&path, &bytes, &options, &mut |uri: &str| {
-            job.read_discovered(uri)
-        })
-        .map_err(|e| StageError::file(e.file, e.kind))?;
+        let loaded = ori_mesh::load(&path, &bytes, &options, &mut Discovered(job))
+            .map_err(|e| StageError::file(e.file, e.kind))?;
         for warning in loaded.warnings {
             job.warn(warning);
         }
         SUMMARY.write(job, &summary(&loaded.mesh));
         MESH.write(job, &loaded.mesh);
         Ok(())
+    }
+}
+
+/// A model's files, as files the job discovers.
+struct Discovered<'j, 'c>(&'j mut JobContext<'c>);
+
+impl ori_mesh::Files for Discovered<'_, '_> {
+    fn read(&mut self, reference: &str) -> std::io::Result<Vec<u8>> {
+        self.0.read_discovered(reference)
+    }
+
+    fn ahead(&mut self, references: &[String]) {
+        self.0.reads_ahead(references);
     }
 }
 
