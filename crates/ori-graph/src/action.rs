@@ -19,7 +19,7 @@ use crate::job::{Input, JobSpec};
 use crate::stage::{JobContext, JobInputs, Stage, StageError};
 
 /// The most discovered files sent with one job.
-pub const MAX_FILES: usize = 1024;
+pub(crate) const MAX_ACTION_FILES: usize = 1024;
 
 /// The description's file name, in the action's folder.
 pub const JOB_FILE: &str = "job.json";
@@ -117,9 +117,9 @@ pub struct ActionLeft {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub wanted: Vec<String>,
     /// With `wanted`: files not sent that the stage said it may read next
-    /// ([`JobContext::reads_ahead`]); sent with them where they can be.
+    /// ([`JobContext::will_read`]), to be sent with them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub ahead: Vec<String>,
+    pub will_read: Vec<String>,
 }
 
 /// What running an action gave.
@@ -149,18 +149,21 @@ pub fn run_action(
         job,
         read,
         wanted: RefCell::new(Vec::new()),
-        ahead: RefCell::new(BTreeSet::new()),
+        will_read: RefCell::new(BTreeSet::new()),
     };
     let mut ctx = JobContext::new(&job.asset, &job.params, &inputs);
     let ran = crate::stage::run_catching(stage, &mut ctx);
     let left = ctx.finish();
     let wanted = inputs.wanted.into_inner();
     if !wanted.is_empty() {
-        let ahead = inputs.ahead.into_inner();
+        let will_read = inputs.will_read.into_inner();
         return Ok(ActionOutputs {
             outputs: BTreeMap::new(),
             left: ActionLeft {
-                ahead: ahead.into_iter().filter(|a| !wanted.contains(a)).collect(),
+                will_read: will_read
+                    .into_iter()
+                    .filter(|w| !wanted.contains(w))
+                    .collect(),
                 wanted,
                 ..ActionLeft::default()
             },
@@ -190,7 +193,7 @@ struct ActionInputs<'a> {
     wanted: RefCell<Vec<String>>,
     /// Discovered files the stage may read next that were not sent (no more than a job is
     /// ever sent).
-    ahead: RefCell<BTreeSet<String>>,
+    will_read: RefCell<BTreeSet<String>>,
 }
 
 impl JobInputs for ActionInputs<'_> {
@@ -257,14 +260,14 @@ impl JobInputs for ActionInputs<'_> {
         }
     }
 
-    fn reads_ahead(&self, relatives: &[String]) {
-        let mut ahead = self.ahead.borrow_mut();
+    fn will_read(&self, relatives: &[String]) {
+        let mut will_read = self.will_read.borrow_mut();
         for relative in relatives {
-            if ahead.len() >= MAX_FILES {
+            if will_read.len() >= MAX_ACTION_FILES {
                 break;
             }
             if !self.job.files.contains_key(relative) {
-                ahead.insert(relative.clone());
+                will_read.insert(relative.clone());
             }
         }
     }

@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
-use crate::action::{ActionJob, ActionOutputs, MAX_FILES};
+use crate::action::{ActionJob, ActionOutputs, MAX_ACTION_FILES};
 use crate::cache::{ActionEntry, Cache, JobRecord, ReadError};
 use crate::execute::RemoteExecution;
 use crate::hash::{ContentHash, canonical_json, job_key};
@@ -642,11 +642,16 @@ impl<'g> Exec<'g> {
                     return None;
                 }
             }
-            // What it may read next goes too, where it can: one it cannot be sent is asked
-            // for by name if the stage reads it, and then refused as above.
-            for relative in done.left.ahead {
-                if !action.files.contains_key(&relative) {
-                    let _ = send_discovered(reader, &mut action, &mut blobs, relative);
+            // What the stage said it may read next goes too, under the same rules: a file
+            // that cannot be sent makes the job run here, whether or not the stage would
+            // read it (so a farm learns nothing from which of them are sent).
+            for relative in done.left.will_read {
+                if action.files.contains_key(&relative) {
+                    continue;
+                }
+                if let Err(why) = send_discovered(reader, &mut action, &mut blobs, relative) {
+                    remote.decline(&action, &why, self.observer);
+                    return None;
                 }
             }
         }
@@ -753,8 +758,8 @@ fn send_discovered(
     blobs: &mut HashMap<ContentHash, Vec<u8>>,
     relative: String,
 ) -> Result<(), String> {
-    if action.files.len() >= MAX_FILES {
-        return Err(format!("it asked for more than {MAX_FILES} files"));
+    if action.files.len() >= MAX_ACTION_FILES {
+        return Err(format!("it asked for more than {MAX_ACTION_FILES} files"));
     }
     match reader.read_discovered(&relative) {
         Ok(bytes) => {

@@ -124,8 +124,8 @@ pub(crate) trait JobInputs {
     fn input_hash(&self, name: &str) -> Option<ContentHash>;
     fn input(&self, name: &str) -> Result<Vec<u8>, StageError>;
     fn read_discovered(&self, relative: &str) -> io::Result<Vec<u8>>;
-    /// Discovered files the stage may read next ([`JobContext::reads_ahead`]).
-    fn reads_ahead(&self, relatives: &[String]) {
+    /// Discovered files the stage may read next ([`JobContext::will_read`]).
+    fn will_read(&self, relatives: &[String]) {
         let _ = relatives;
     }
 }
@@ -219,8 +219,8 @@ impl<'a> JobContext<'a> {
     /// remote-execution farm, a job that stops for a file that was not sent is sent these
     /// with it, so a model's files take one round instead of one each. Nothing is recorded:
     /// only what is read is.
-    pub fn reads_ahead(&mut self, relatives: &[String]) {
-        self.inputs.reads_ahead(relatives);
+    pub fn will_read(&mut self, relatives: &[String]) {
+        self.inputs.will_read(relatives);
     }
 
     /// Store a named output.

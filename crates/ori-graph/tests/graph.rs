@@ -42,7 +42,7 @@ impl Stage for Upper {
         // Optional include files, discovered while running, named before either is read;
         // as a model loader would, it reads no further after one it cannot read.
         let includes = ["include.txt", "second.txt"].map(String::from);
-        ctx.reads_ahead(&includes);
+        ctx.will_read(&includes);
         for include in &includes {
             match ctx.read_discovered(include) {
                 Ok(extra) => out.push_str(&String::from_utf8_lossy(&extra)),

@@ -124,29 +124,9 @@ fn load_document(
         .map_err(|e| corrupt(format!("invalid glTF JSON: {e}")))?;
     check_geometry_extensions(&raw)?;
     let document = parse_document(json, &raw, warnings)?;
-    let buffer_uris = document.buffers().filter_map(|b| match b.source() {
-        Source::Uri(uri) => Some(uri),
-        Source::Bin => None,
-    });
-    // The images of base colour textures, the only ones read (their JSON directly: see
-    // `Loader::decode_image`).
-    let images = &document.as_json().images;
-    let image_uris = document
-        .materials()
-        .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
-        .filter_map(|info| images.get(info.texture().source().index()))
-        .filter_map(|i| match i.buffer_view {
-            Some(_) => None,
-            None => i.uri.as_deref(),
-        });
-    let mut seen = HashSet::new();
-    let files: Vec<String> = buffer_uris
-        .chain(image_uris)
-        .filter_map(file_name)
-        .filter(|name| seen.insert(name.clone()))
-        .collect();
+    let files = files_read(&document);
     if !files.is_empty() {
-        resolver.ahead(&files);
+        resolver.will_read(&files);
     }
     let mut buffers = load_buffers(&document, &raw, blob, resolver)?;
     decode_meshopt_views(&document, &raw, &mut buffers)?;
@@ -533,28 +513,60 @@ fn decode_meshopt_views(
     Ok(())
 }
 
-/// Reads what a URI refers to: a `data:` URI is decoded in place, anything else is
-/// percent-decoded into a relative file name for the resolver.
-fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind> {
-    if let Some(data) = uri.strip_prefix("data:") {
-        let (meta, payload) = data
-            .split_once(',')
-            .ok_or_else(|| corrupt("invalid data URI: no comma before the data"))?;
-        return if meta.ends_with(";base64") {
-            BASE64
-                .decode(payload)
-                .map_err(|e| corrupt(format!("invalid base64 in data URI: {e}")))
-        } else {
-            Ok(percent_decode(payload))
-        };
+/// The files the loader may read, as [`read_uri`] asks for them: the external buffers (as
+/// [`load_buffers`] reads them) and the images of base-colour textures, the only images read
+/// (their JSON directly, as `Loader::decode_image` reads it). Each image is named once however
+/// many materials use it, so the work is linear in the document.
+fn files_read(document: &Document) -> Vec<String> {
+    let buffers = document.buffers().filter_map(|b| match b.source() {
+        Source::Uri(uri) => Some(uri),
+        Source::Bin => None,
+    });
+    let json_images = &document.as_json().images;
+    let mut base_colour = vec![false; json_images.len()];
+    for info in document
+        .materials()
+        .filter_map(|m| m.pbr_metallic_roughness().base_color_texture())
+    {
+        if let Some(used) = base_colour.get_mut(info.texture().source().index()) {
+            *used = true;
+        }
     }
-    let name = file_name(uri).expect("not a data URI");
-    resolver
-        .read(&name)
-        .map_err(|source| ErrorKind::MissingExternal {
-            uri: uri.to_string(),
-            source,
-        })
+    let images = json_images
+        .iter()
+        .zip(base_colour)
+        .filter(|(image, used)| *used && image.buffer_view.is_none())
+        .filter_map(|(image, _)| image.uri.as_deref());
+    let mut seen = HashSet::new();
+    buffers
+        .chain(images)
+        .filter_map(file_name)
+        .filter(|name| seen.insert(name.clone()))
+        .collect()
+}
+
+/// Reads what a URI refers to: a file (percent-decoded into a relative name) from the
+/// resolver, or a `data:` URI decoded in place.
+fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind> {
+    if let Some(name) = file_name(uri) {
+        return resolver
+            .read(&name)
+            .map_err(|source| ErrorKind::MissingExternal {
+                uri: uri.to_string(),
+                source,
+            });
+    }
+    let data = uri.strip_prefix("data:").unwrap_or(uri);
+    let (meta, payload) = data
+        .split_once(',')
+        .ok_or_else(|| corrupt("invalid data URI: no comma before the data"))?;
+    if meta.ends_with(";base64") {
+        BASE64
+            .decode(payload)
+            .map_err(|e| corrupt(format!("invalid base64 in data URI: {e}")))
+    } else {
+        Ok(percent_decode(payload))
+    }
 }
 
 /// The file a URI names, as the resolver is asked for it (percent-decoded); `None` for a

@@ -210,10 +210,11 @@ pub trait Files {
     fn read(&mut self, reference: &str) -> io::Result<Vec<u8>>;
 
     /// Called before the loader reads any of `references`: the files it may read next (a
-    /// glTF's external buffers and images once its JSON is parsed, a material library's
-    /// textures once it is parsed), so that a reader which fetches files from elsewhere can
-    /// fetch them together. Some may never be read (an image no material uses).
-    fn ahead(&mut self, references: &[String]) {
+    /// glTF's external buffers and base-colour images once its JSON is parsed, a material
+    /// library's textures once it is parsed), so that a reader which fetches files from
+    /// elsewhere can fetch them together. Some may never be read (the texture of a material
+    /// no face uses).
+    fn will_read(&mut self, references: &[String]) {
         let _ = references;
     }
 }

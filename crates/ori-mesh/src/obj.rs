@@ -442,18 +442,12 @@ impl Library {
         })?;
         let file = self.dir.join(&reference);
         let index = self.files.len();
-        parse_mtl(&bytes, &reference, index, &mut self.definitions, warnings)
+        let mut textures = parse_mtl(&bytes, &reference, index, &mut self.definitions, warnings)
             .map_err(|kind| kind.in_file(&file))?;
-        let mut textures: Vec<String> = self
-            .definitions
-            .values()
-            .filter(|d| d.file == index)
-            .filter_map(|d| d.texture.clone())
-            .collect();
         textures.sort_unstable();
         textures.dedup();
         if !textures.is_empty() {
-            resolver.ahead(&textures);
+            resolver.will_read(&textures);
         }
         self.files.push(file);
         self.loaded.push(reference);
@@ -545,15 +539,17 @@ impl Library {
     }
 }
 
-/// Parse an MTL file into `definitions` (a later `newmtl` of the same name wins).
+/// Parse an MTL file into `definitions` (a later `newmtl` of the same name wins); the textures
+/// its `map_Kd` statements name, as the resolver is asked for them.
 fn parse_mtl(
     bytes: &[u8],
     reference: &str,
     file: usize,
     definitions: &mut HashMap<String, Definition>,
     warnings: &mut Vec<String>,
-) -> Result<(), ErrorKind> {
+) -> Result<Vec<String>, ErrorKind> {
     let mut current: Option<(String, Definition)> = None;
+    let mut textures = Vec::new();
     for (line, text) in Lines::new(bytes) {
         let mut args = words(&text);
         let Some(keyword) = args.next() else {
@@ -609,7 +605,9 @@ fn parse_mtl(
             b"map_kd" => {
                 let file_name = map_file(rest_of_line(&text))
                     .ok_or_else(|| syntax(line, "`map_Kd` needs an image file name".into()))?;
-                definition.texture = Some(texture_reference(reference, file_name));
+                let texture = texture_reference(reference, file_name);
+                textures.push(texture.clone());
+                definition.texture = Some(texture);
             }
             b"map_d" => warnings.push(format!(
                 "{reference}: material `{name}`: `map_d` alpha textures are not supported; ignored"
@@ -620,7 +618,7 @@ fn parse_mtl(
     if let Some((name, definition)) = current {
         definitions.insert(name, definition);
     }
-    Ok(())
+    Ok(textures)
 }
 
 /// The image file of a `map_*` statement. Options (`-s 1 1 1`, `-clamp on`, ...) come first;

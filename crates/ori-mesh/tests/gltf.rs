@@ -223,8 +223,9 @@ impl ori_mesh::Files for Recorder {
         self.events.push(format!("read {reference}"));
         std::fs::read(self.dir.join(reference))
     }
-    fn ahead(&mut self, references: &[String]) {
-        self.events.push(format!("ahead {}", references.join(", ")));
+    fn will_read(&mut self, references: &[String]) {
+        self.events
+            .push(format!("will read {}", references.join(", ")));
     }
 }
 
@@ -241,12 +242,12 @@ fn the_loader_names_the_files_it_will_read_before_reading_them() {
     assert_eq!(
         files.events,
         [
-            "ahead Avocado.bin, Avocado_baseColor.png",
+            "will read Avocado.bin, Avocado_baseColor.png",
             "read Avocado.bin",
             "read Avocado_baseColor.png"
         ]
     );
-    // A percent-encoded name is announced as it is read; a data URI is not a file.
+    // A percent-encoded name is named as it is read.
     let (json, bin) = external_buffer_doc("my%20mesh.bin");
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("my mesh.bin"), &bin).unwrap();
@@ -261,7 +262,7 @@ fn the_loader_names_the_files_it_will_read_before_reading_them() {
         &mut files,
     )
     .unwrap();
-    assert_eq!(files.events, ["ahead my mesh.bin", "read my mesh.bin"]);
+    assert_eq!(files.events, ["will read my mesh.bin", "read my mesh.bin"]);
 }
 
 #[test]

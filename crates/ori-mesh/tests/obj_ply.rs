@@ -335,8 +335,8 @@ fn obj_library_names_its_textures_before_any_is_read() {
                 .map(|(_, b)| b.to_vec())
                 .ok_or_else(|| std::io::ErrorKind::NotFound.into())
         }
-        fn ahead(&mut self, references: &[String]) {
-            self.1.push(format!("ahead {}", references.join(", ")));
+        fn will_read(&mut self, references: &[String]) {
+            self.1.push(format!("will read {}", references.join(", ")));
         }
     }
     let obj = format!("mtllib m.mtl\n{QUAD}usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n");
@@ -355,7 +355,7 @@ fn obj_library_names_its_textures_before_any_is_read() {
     // (The unused material's texture is named too: which are used is known only later.)
     assert_eq!(
         recorder.1,
-        ["read m.mtl", "ahead gone.png, t.png", "read t.png"]
+        ["read m.mtl", "will read gone.png, t.png", "read t.png"]
     );
 }
 

@@ -130,6 +130,35 @@ mod tests {
     }
 
     #[test]
+    fn a_gltf_sent_alone_asks_for_its_buffer_and_names_the_image_it_will_read() {
+        let model = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/models/gltf/Avocado/glTF/Avocado.gltf");
+        let bytes = std::fs::read(&model).unwrap();
+        let hash = ContentHash::of(&bytes);
+        let registry = Registry::new(ori_mesh::Limits::default());
+        let ingest = registry.by_name("ingest").unwrap();
+        let params = crate::stages::ingest::IngestJob::new(&model, &Default::default());
+        let job = ActionJob {
+            stage: "ingest".into(),
+            stage_version: ingest.version(),
+            asset: "avocado".into(),
+            params: serde_json::to_value(&params).unwrap(),
+            inputs: BTreeMap::from([("source".to_string(), hash)]),
+            hashed: BTreeMap::new(),
+            sources: BTreeMap::from([("source".to_string(), "Avocado.gltf".to_string())]),
+            files: BTreeMap::new(),
+            settings: serde_json::Value::Null,
+        };
+        let read = |_: &ContentHash| Ok(bytes.clone());
+        let done = run_action(ingest.as_ref(), &job, &read).unwrap();
+        // The loader stops at the buffer, but has named the base-colour image too (not the
+        // normal or roughness images, which it never reads).
+        assert_eq!(done.left.wanted, ["Avocado.bin"]);
+        assert_eq!(done.left.will_read, ["Avocado_baseColor.png"]);
+        assert!(done.outputs.is_empty());
+    }
+
+    #[test]
     fn a_model_is_loaded_within_the_limits_the_action_carries() {
         let model =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/bunny/bunny_npm_lowres.obj");

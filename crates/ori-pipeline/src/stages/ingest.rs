@@ -103,7 +103,7 @@ impl PipelineStage for Ingest {
             recompute_normals: params.ingest.recompute_normals,
             limits: self.limits,
         };
-        let loaded = ori_mesh::load(&path, &bytes, &options, &mut Discovered(job))
+        let loaded = ori_mesh::load(&path, &bytes, &options, &mut DiscoveredFiles(job))
             .map_err(|e| StageError::file(e.file, e.kind))?;
         for warning in loaded.warnings {
             job.warn(warning);
@@ -115,15 +115,15 @@ impl PipelineStage for Ingest {
 }
 
 /// A model's files, as files the job discovers.
-struct Discovered<'j, 'c>(&'j mut JobContext<'c>);
+struct DiscoveredFiles<'j, 'c>(&'j mut JobContext<'c>);
 
-impl ori_mesh::Files for Discovered<'_, '_> {
+impl ori_mesh::Files for DiscoveredFiles<'_, '_> {
     fn read(&mut self, reference: &str) -> std::io::Result<Vec<u8>> {
         self.0.read_discovered(reference)
     }
 
-    fn ahead(&mut self, references: &[String]) {
-        self.0.reads_ahead(references);
+    fn will_read(&mut self, references: &[String]) {
+        self.0.will_read(references);
     }
 }
 
