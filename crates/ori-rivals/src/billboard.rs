@@ -86,6 +86,41 @@ impl PixelBox {
         }
     }
 
+    /// All of an `n` x `n` image.
+    pub fn whole(n: usize) -> PixelBox {
+        PixelBox {
+            x0: 0,
+            x1: n,
+            y0: 0,
+            y1: n,
+        }
+    }
+
+    /// The texels of `map` that hold a surface (empty when none does).
+    pub fn occupied(map: &ReliefMap) -> PixelBox {
+        let n = map.size() as usize;
+        let mut b = PixelBox::empty();
+        for (row, depths) in map.depth.chunks_exact(n.max(1)).enumerate() {
+            let (Some(first), Some(last)) = (
+                depths.iter().position(|&d| d != EMPTY_DEPTH),
+                depths.iter().rposition(|&d| d != EMPTY_DEPTH),
+            ) else {
+                continue;
+            };
+            b = b.union(PixelBox {
+                x0: first,
+                x1: last + 1,
+                y0: row,
+                y1: row + 1,
+            });
+        }
+        b
+    }
+
+    fn is_empty(self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
     /// Each pixel index inside, row by row.
     pub fn pixels(self, size: u32) -> impl Iterator<Item = usize> {
         let n = size as usize;
@@ -93,17 +128,33 @@ impl PixelBox {
     }
 }
 
-/// The pixels of `view` whose rays meet the window of `map` laid on the plane through
-/// `point` perpendicular to the map's direction: outside them no texel of the map is read
-/// there (bounding box of the window's corners, widened by a pixel).
-pub(crate) fn window_pixels(view: &OrthoView, map: &ReliefMap, point: [f64; 3]) -> PixelBox {
+/// The pixels of `view` whose rays meet the texels `texels` of `map` laid on the plane through
+/// `point` perpendicular to the map's direction: outside them none of those texels is read
+/// there (bounding box of the texels' corners, widened by a pixel). `PixelBox::whole` gives
+/// the map's whole window; `PixelBox::occupied` its surface, where only that can be drawn.
+pub(crate) fn window_pixels(
+    view: &OrthoView,
+    map: &ReliefMap,
+    point: [f64; 3],
+    texels: PixelBox,
+) -> PixelBox {
+    if texels.is_empty() {
+        return PixelBox::empty();
+    }
     let (v, f) = (&map.view, &map.view.frame);
     let h = dot(point, f.d);
+    let step = 2.0 * v.half_size / f64::from(v.size);
     let (mut x0, mut y0, mut x1, mut y1) = (f64::MAX, f64::MAX, f64::MIN, f64::MIN);
-    for (su, sv) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
+    for (tx, ty) in [
+        (texels.x0, texels.y0),
+        (texels.x1, texels.y0),
+        (texels.x0, texels.y1),
+        (texels.x1, texels.y1),
+    ] {
+        // Texel column `tx` starts at u = centre - half + tx * step; rows run down along -v.
         let corner = f.to_world([
-            v.center[0] + su * v.half_size,
-            v.center[1] + sv * v.half_size,
+            v.center[0] - v.half_size + tx as f64 * step,
+            v.center[1] + v.half_size - ty as f64 * step,
             h,
         ]);
         let [x, y, _] = view.project(corner);
@@ -237,7 +288,8 @@ impl Rival for Billboards {
         let w = view.frame.d;
         let map = &self.maps[self.nearest(w)];
         let mut render = Render::empty(view.size);
-        for i in window_pixels(view, map, self.centre).pixels(view.size) {
+        let whole = PixelBox::whole(map.size() as usize);
+        for i in window_pixels(view, map, self.centre, whole).pixels(view.size) {
             let o = pixel_origin(view, i);
             let Some(p) = hit_plane(o, w, self.centre, map.view.frame.d) else {
                 continue;

@@ -32,7 +32,7 @@ use ori_raster::{Frame, OrthoView, dot, normalize};
 use ori_relief::ReliefMap;
 use rayon::prelude::*;
 
-use crate::billboard::{hit_plane, pixel_origin, texel_at, window_pixels, world_normal};
+use crate::billboard::{PixelBox, hit_plane, pixel_origin, texel_at, window_pixels, world_normal};
 use crate::{Drawn, Primitive, Rival, RivalError, Technique, billboard_bytes, within_budget};
 
 /// Largest angle between a face's normal and its cluster's plane.
@@ -424,6 +424,8 @@ struct Card {
     map: ReliefMap,
     /// A point of the plane.
     centre: [f64; 3],
+    /// The texels of `map` that hold a surface: only pixels that see them can be drawn.
+    occupied: PixelBox,
 }
 
 /// A billboard cloud.
@@ -526,8 +528,10 @@ impl BillboardCloud {
                         let mut set = Baker::with_textures(scratch, textures.clone())
                             .bake_any_resolution(&[frame.d], &params)
                             .map_err(|e| bad(e.to_string()))?;
+                        let map = set.maps.pop().expect("one direction, one map");
                         Ok(Card {
-                            map: set.maps.pop().expect("one direction, one map"),
+                            occupied: PixelBox::occupied(&map),
+                            map,
                             centre: *centre,
                         })
                     },
@@ -585,7 +589,7 @@ impl Rival for BillboardCloud {
             }
             let side = if facing > 0.0 { 1.0 } else { -1.0 };
             drawn += 1;
-            for i in window_pixels(view, &card.map, card.centre).pixels(view.size) {
+            for i in window_pixels(view, &card.map, card.centre, card.occupied).pixels(view.size) {
                 let o = pixel_origin(view, i);
                 let Some(p) = hit_plane(o, w, card.centre, f.d) else {
                     continue;

@@ -216,7 +216,7 @@ impl Rival for Octahedral {
             .map(|&(k, _)| {
                 let map = &self.maps[k];
                 if dot(w, map.view.frame.d) > MIN_PARALLAX_COS {
-                    window_pixels(view, map, self.centre)
+                    window_pixels(view, map, self.centre, PixelBox::whole(map.size() as usize))
                 } else {
                     all
                 }
