@@ -119,7 +119,11 @@ fn compare(args: &Args) -> Result<(), Failure> {
     } else {
         args.techniques.clone()
     };
-    let ori = if wanted.contains(&Technique::Ori) {
+    // The ORI and its rivals are baked at once: neither keeps both cores busy throughout.
+    let build_ori = || -> Result<_, Failure> {
+        if !wanted.contains(&Technique::Ori) {
+            return Ok(None);
+        }
         step(&format!(
             "ori: {} maps of {resolution} x {resolution} ({})",
             params.views.count,
@@ -127,21 +131,24 @@ fn compare(args: &Args) -> Result<(), Failure> {
         ));
         let maps = ori_pipeline::ori::build_maps(&mesh, &params).map_err(run_error)?;
         let selection = ori_select::select(&mesh, &maps.set, &params.select).map_err(run_error)?;
-        Some((maps.set, selection))
-    } else {
-        None
+        step("ori baked");
+        Ok(Some((maps.set, selection)))
     };
-    step("tuning views");
-    let tuning = References::new(
-        &mesh,
-        &ori_rivals::tuning_directions(args.held_out_seed),
-        s0,
-    )
-    .map_err(run_error)?;
-    let rivals = Rivals::bake(&mesh, budget, &wanted, &tuning, &|t: Technique| {
-        step(t.name())
-    })
-    .map_err(run_error)?;
+    let bake_rivals = || -> Result<Rivals, Failure> {
+        step("tuning views");
+        let tuning = References::new(
+            &mesh,
+            &ori_rivals::tuning_directions(args.held_out_seed),
+            s0,
+        )
+        .map_err(run_error)?;
+        Rivals::bake(&mesh, budget, &wanted, &tuning, &|t: Technique| {
+            step(&format!("{} baked", t.name()))
+        })
+        .map_err(run_error)
+    };
+    let (ori, rivals) = rayon::join(build_ori, bake_rivals);
+    let (ori, rivals) = (ori?, rivals?);
     let mut all = rivals.all(&mesh).map_err(run_error)?;
     if let Some((set, selection)) = &ori {
         all.push(Box::new(

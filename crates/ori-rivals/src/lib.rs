@@ -36,6 +36,7 @@ mod simplified;
 use ori_eval::Render;
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use billboard::{Billboards, Projection};
@@ -273,21 +274,22 @@ pub struct Rivals {
 
 impl Rivals {
     /// Bake the techniques of `wanted` (the ORI aside) within `budget` bytes, each in the
-    /// layout that `tuning` measures best; `progress` hears each technique's name before it
-    /// is baked.
+    /// layout that `tuning` measures best, several at once; `progress` hears each technique's
+    /// name once it is baked.
     pub fn bake(
         mesh: &Mesh,
         budget: u64,
         wanted: &[Technique],
         tuning: &References,
-        progress: &dyn Fn(Technique),
+        progress: &(dyn Fn(Technique) + Sync),
     ) -> Result<Rivals, RivalError> {
-        let mut baked = Vec::new();
-        for technique in Technique::ALL {
-            if !wanted.contains(&technique) || technique == Technique::Ori {
-                continue;
-            }
-            progress(technique);
+        let techniques: Vec<Technique> = Technique::ALL
+            .into_iter()
+            .filter(|t| wanted.contains(t) && *t != Technique::Ori)
+            .collect();
+        // At once: a technique's search for its layout does not keep both cores busy (the
+        // cloud's clustering is sequential), and each bake depends on nothing but the mesh.
+        let bake_one = |technique: Technique| -> Result<Baked, RivalError> {
             let octahedral = |sphere| {
                 choose(
                     technique,
@@ -306,7 +308,7 @@ impl Rivals {
                 )
                 .map(Baked::Billboards)
             };
-            baked.push(match technique {
+            let baked = match technique {
                 Technique::Octahedral => octahedral(Sphere::Full)?,
                 Technique::HemiOctahedral => octahedral(Sphere::Upper)?,
                 Technique::BillboardsOrthographic => billboards(Projection::Orthographic)?,
@@ -337,8 +339,14 @@ impl Rivals {
                     Baked::SimplifiedMesh(SimplifiedMesh::new(mesh, budget)?)
                 }
                 Technique::Ori => unreachable!("skipped above"),
-            });
-        }
+            };
+            progress(technique);
+            Ok(baked)
+        };
+        let baked = techniques
+            .into_par_iter()
+            .map(bake_one)
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Rivals { baked })
     }
 
