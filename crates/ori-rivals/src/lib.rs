@@ -343,9 +343,13 @@ impl Rivals {
             progress(technique);
             Ok(baked)
         };
+        // Every bake runs to its end, so that the error reported is the first in order, the
+        // same on every run.
         let baked = techniques
             .into_par_iter()
             .map(bake_one)
+            .collect::<Vec<_>>()
+            .into_iter()
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Rivals { baked })
     }
