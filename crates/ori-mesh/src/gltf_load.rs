@@ -540,7 +540,8 @@ fn files_read(document: &Document) -> Vec<String> {
     let mut seen = HashSet::new();
     buffers
         .chain(images)
-        .filter_map(file_name)
+        .filter(|uri| !uri.starts_with("data:"))
+        .map(file_name)
         .filter(|name| seen.insert(name.clone()))
         .collect()
 }
@@ -548,15 +549,14 @@ fn files_read(document: &Document) -> Vec<String> {
 /// Reads what a URI refers to: a file (percent-decoded into a relative name) from the
 /// resolver, or a `data:` URI decoded in place.
 fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind> {
-    if let Some(name) = file_name(uri) {
+    let Some(data) = uri.strip_prefix("data:") else {
         return resolver
-            .read(&name)
+            .read(&file_name(uri))
             .map_err(|source| ErrorKind::MissingExternal {
                 uri: uri.to_string(),
                 source,
             });
-    }
-    let data = uri.strip_prefix("data:").unwrap_or(uri);
+    };
     let (meta, payload) = data
         .split_once(',')
         .ok_or_else(|| corrupt("invalid data URI: no comma before the data"))?;
@@ -569,10 +569,10 @@ fn read_uri(uri: &str, resolver: &mut Resolver<'_>) -> Result<Vec<u8>, ErrorKind
     }
 }
 
-/// The file a URI names, as the resolver is asked for it (percent-decoded); `None` for a
-/// `data:` URI.
-fn file_name(uri: &str) -> Option<String> {
-    (!uri.starts_with("data:")).then(|| String::from_utf8_lossy(&percent_decode(uri)).into_owned())
+/// The file a URI that is not a `data:` URI names, as the resolver is asked for it
+/// (percent-decoded).
+fn file_name(uri: &str) -> String {
+    String::from_utf8_lossy(&percent_decode(uri)).into_owned()
 }
 
 /// Decodes `%XX` escapes; anything else, malformed escapes included, passes through.

@@ -129,26 +129,39 @@ mod tests {
         assert!(!dir.path().join(OUTPUTS_DIR).exists());
     }
 
+    /// An `ingest` action on `model`, sent alone (no discovered files) as `source`, and the
+    /// model's bytes.
+    fn ingest_action(
+        model: &Path,
+        asset: &str,
+        source: &str,
+        settings: serde_json::Value,
+    ) -> (ActionJob, Vec<u8>) {
+        let bytes = std::fs::read(model).unwrap();
+        let registry = Registry::new(ori_mesh::Limits::default());
+        let params = crate::stages::ingest::IngestJob::new(model, &Default::default());
+        let job = ActionJob {
+            stage: "ingest".into(),
+            stage_version: registry.by_name("ingest").unwrap().version(),
+            asset: asset.into(),
+            params: serde_json::to_value(&params).unwrap(),
+            inputs: BTreeMap::from([("source".to_string(), ContentHash::of(&bytes))]),
+            hashed: BTreeMap::new(),
+            sources: BTreeMap::from([("source".to_string(), source.to_string())]),
+            files: BTreeMap::new(),
+            settings,
+        };
+        (job, bytes)
+    }
+
     #[test]
     fn a_gltf_sent_alone_asks_for_its_buffer_and_names_the_image_it_will_read() {
         let model = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../../../shared/models/gltf/Avocado/glTF/Avocado.gltf");
-        let bytes = std::fs::read(&model).unwrap();
-        let hash = ContentHash::of(&bytes);
+        let (job, bytes) =
+            ingest_action(&model, "avocado", "Avocado.gltf", serde_json::Value::Null);
         let registry = Registry::new(ori_mesh::Limits::default());
         let ingest = registry.by_name("ingest").unwrap();
-        let params = crate::stages::ingest::IngestJob::new(&model, &Default::default());
-        let job = ActionJob {
-            stage: "ingest".into(),
-            stage_version: ingest.version(),
-            asset: "avocado".into(),
-            params: serde_json::to_value(&params).unwrap(),
-            inputs: BTreeMap::from([("source".to_string(), hash)]),
-            hashed: BTreeMap::new(),
-            sources: BTreeMap::from([("source".to_string(), "Avocado.gltf".to_string())]),
-            files: BTreeMap::new(),
-            settings: serde_json::Value::Null,
-        };
         let read = |_: &ContentHash| Ok(bytes.clone());
         let done = run_action(ingest.as_ref(), &job, &read).unwrap();
         // The loader stops at the buffer, but has named the base-colour image too (not the
@@ -162,23 +175,11 @@ mod tests {
     fn a_model_is_loaded_within_the_limits_the_action_carries() {
         let model =
             Path::new(env!("CARGO_MANIFEST_DIR")).join("../../samples/bunny/bunny_npm_lowres.obj");
-        let bytes = std::fs::read(&model).unwrap();
-        let hash = ContentHash::of(&bytes);
-        let registry = Registry::new(ori_mesh::Limits::default());
-        let params = crate::stages::ingest::IngestJob::new(&model, &Default::default());
-        let action = |settings: serde_json::Value| ActionJob {
-            stage: "ingest".into(),
-            stage_version: registry.by_name("ingest").unwrap().version(),
-            asset: "bunny".into(),
-            params: serde_json::to_value(&params).unwrap(),
-            inputs: BTreeMap::from([("source".to_string(), hash)]),
-            hashed: BTreeMap::new(),
-            sources: BTreeMap::from([("source".to_string(), "bunny.obj".to_string())]),
-            files: BTreeMap::new(),
-            settings,
-        };
+        let hash = ContentHash::of(&std::fs::read(&model).unwrap());
+        let action = |settings| ingest_action(&model, "bunny", "bunny.obj", settings);
         let run = |settings| {
-            let job = serde_json::to_value(action(settings)).unwrap();
+            let (job, bytes) = action(settings);
+            let job = serde_json::to_value(job).unwrap();
             let dir = folder(&job, &[(&hash.to_hex(), &bytes)]);
             let ran = run_folder(dir.path());
             (ran, dir)
