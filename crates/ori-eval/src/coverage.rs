@@ -2,7 +2,8 @@
 //! (same projection, fill rule, alpha test and culling, operation for operation; only conservative
 //! pre-tests added), computed as a union of triangles, so no depth test, heights or
 //! barycentrics are needed and a triangle whose pixels are all covered already is skipped.
-//! A test holds the two equal.
+//! A test holds the two equal. Likewise the nearest heights alone (what a hierarchy node's
+//! own pixels are found by), a maximum over triangles, for the pixels of a window only.
 
 use ori_mesh::Mesh;
 use ori_raster::{
@@ -23,6 +24,19 @@ pub(crate) struct CoverageMesh {
     original: Vec<u32>,
     /// Whether each triangle is culled from behind (`Mesh::single_sided`).
     single_sided: Vec<bool>,
+    /// The boxes of runs of [`CHUNK`] consecutive triangles, for [`heights`] to skip the runs
+    /// that project outside the pixels it is asked for.
+    chunks: Vec<Chunk>,
+}
+
+/// Triangles per [`Chunk`].
+const CHUNK: usize = 64;
+
+/// The bounding box of [`CHUNK`] consecutive triangles (neighbours on the Morton curve):
+/// centre and half extents.
+struct Chunk {
+    center: [f64; 3],
+    half: [f64; 3],
 }
 
 impl CoverageMesh {
@@ -77,7 +91,25 @@ impl CoverageMesh {
                 remap[v as usize]
             }));
         }
+        let chunks = triangles
+            .chunks(CHUNK)
+            .map(|run| {
+                let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+                for &i in run.iter().flatten() {
+                    let p = positions[i as usize];
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(f64::from(p[k]));
+                        hi[k] = hi[k].max(f64::from(p[k]));
+                    }
+                }
+                Chunk {
+                    center: std::array::from_fn(|k| 0.5 * (lo[k] + hi[k])),
+                    half: std::array::from_fn(|k| 0.5 * (hi[k] - lo[k])),
+                }
+            })
+            .collect();
         CoverageMesh {
+            chunks,
             positions,
             triangles,
             single_sided: order.iter().map(|o| single_sided[o.1 as usize]).collect(),
@@ -168,6 +200,194 @@ fn coverage_with(
         draw(&mut mask, t, [a, b, c], area, known, masked);
     }
     mask
+}
+
+/// Per-vertex data of one view for [`heights`], reused between views: screen position and
+/// height, the first test's keys, and the view each vertex was last projected in (a vertex
+/// is projected only when a triangle of a run that is not skipped reads it).
+#[derive(Default)]
+struct Projected {
+    exact: Vec<[f64; 2]>,
+    height: Vec<f64>,
+    keys: Vec<[u32; 2]>,
+    stamp: Vec<u32>,
+    generation: u32,
+}
+
+thread_local! {
+    static PROJECTED: std::cell::RefCell<Projected> = std::cell::RefCell::new(Projected::default());
+}
+
+/// The height (`d . p`) of the nearest surface at every pixel centre of `view`, bit for bit
+/// the `height` of `ori_raster::rasterize` (same projection, fill rule, alpha test and
+/// culling; `NEG_INFINITY` where nothing is drawn), at the pixels of `window`
+/// (`[x0, x1, y0, y1]`, inclusive) only: outside it the value is `NEG_INFINITY`. The nearest
+/// height is a maximum, so the triangle order does not change it, and runs of triangles whose
+/// box projects outside the window are skipped whole.
+pub(crate) fn heights(
+    view: &OrthoView,
+    mesh: &CoverageMesh,
+    alpha: Option<&AlphaCut<'_>>,
+    window: [usize; 4],
+) -> Vec<f64> {
+    PROJECTED.with_borrow_mut(|scratch| heights_with(view, mesh, alpha, window, scratch))
+}
+
+fn heights_with(
+    view: &OrthoView,
+    mesh: &CoverageMesh,
+    alpha: Option<&AlphaCut<'_>>,
+    window: [usize; 4],
+    scratch: &mut Projected,
+) -> Vec<f64> {
+    let n = view.size as usize;
+    let mut out = vec![f64::NEG_INFINITY; n * n];
+    let [wx0, wx1, wy0, wy1] = window;
+    if wx0 > wx1 || wy0 > wy1 || wx1 >= n || wy1 >= n {
+        return out;
+    }
+    let vertices = mesh.positions.len();
+    if scratch.stamp.len() != vertices {
+        scratch.stamp = vec![0; vertices];
+        scratch.exact.resize(vertices, [0.0; 2]);
+        scratch.height.resize(vertices, 0.0);
+        scratch.keys.resize(vertices, [0; 2]);
+        scratch.generation = 0;
+    }
+    scratch.generation = scratch.generation.wrapping_add(1);
+    if scratch.generation == 0 {
+        scratch.stamp.fill(0);
+        scratch.generation = 1;
+    }
+    let generation = scratch.generation;
+    // `OrthoView::project`, operation for operation.
+    let frame = view.frame;
+    let scale = f64::from(view.size) / (2.0 * view.half_size);
+    let (cx, cy) = (view.center[0], view.center[1] + view.half_size);
+    let x_of = |lu: f64| (lu - cx + view.half_size) * scale;
+    let y_of = |lv: f64| (cy - lv) * scale;
+    let dot = |a: [f64; 3], p: [f64; 3]| a[0] * p[0] + a[1] * p[1] + a[2] * p[2];
+    // A run is skipped when its box lies more than a pixel beyond the window's outer pixel
+    // centres (the margin dwarfs any rounding; a NaN skips nothing).
+    let (left, right) = (wx0 as f64 - 0.5, wx1 as f64 + 1.5);
+    let (top, bottom) = (wy0 as f64 - 0.5, wy1 as f64 + 1.5);
+    let extent = |axis: [f64; 3], half: [f64; 3]| {
+        axis[0].abs() * half[0] + axis[1].abs() * half[1] + axis[2].abs() * half[2]
+    };
+    let runs = mesh.triangles.chunks(CHUNK).zip(&mesh.chunks);
+    for (k, (run, chunk)) in runs.enumerate() {
+        let (lu, hu) = (dot(frame.u, chunk.center), extent(frame.u, chunk.half));
+        let (lv, hv) = (dot(frame.v, chunk.center), extent(frame.v, chunk.half));
+        if x_of(lu + hu) < left
+            || x_of(lu - hu) > right
+            || y_of(lv - hv) < top
+            || y_of(lv + hv) > bottom
+        {
+            continue;
+        }
+        for (t, tri) in (k * CHUNK..).zip(run) {
+            for &i in tri {
+                let i = i as usize;
+                if scratch.stamp[i] == generation {
+                    continue;
+                }
+                let p = mesh.positions[i].map(f64::from);
+                let screen = [x_of(dot(frame.u, p)), y_of(dot(frame.v, p))];
+                scratch.exact[i] = screen;
+                scratch.height[i] = dot(frame.d, p);
+                scratch.keys[i] = screen.map(|c| centre_gap(c, view.size));
+                scratch.stamp[i] = generation;
+            }
+            let [ka, kb, kc] = tri.map(|i| scratch.keys[i as usize]);
+            if (0..2).any(|k| covers_no_centre([ka[k], kb[k], kc[k]])) {
+                continue;
+            }
+            let [a, b, c] = tri.map(|i| scratch.exact[i as usize]);
+            let area = edge(a, b, c);
+            if area == 0.0 || !area.is_finite() || (mesh.single_sided[t] && faces_away(area)) {
+                continue;
+            }
+            let h = tri.map(|i| scratch.height[i as usize]);
+            let t = mesh.original[t] as usize;
+            let masked = alpha.filter(|al| al.masked[t]);
+            draw_height(&mut out, n, window, t, [a, b, c], h, area, masked);
+        }
+    }
+    out
+}
+
+/// `ori_raster`'s exact inside test and depth-tested write of one triangle, heights only,
+/// at the pixels of `window`; `area` is `edge(a, b, c)`, non-zero and finite, of a triangle
+/// not culled, and `h` its corners' heights.
+#[allow(clippy::too_many_arguments)]
+fn draw_height(
+    out: &mut [f64],
+    n: usize,
+    [wx0, wx1, wy0, wy1]: [usize; 4],
+    t: usize,
+    [a, b, c]: [[f64; 2]; 3],
+    [ha, hb, hc]: [f64; 3],
+    area: f64,
+    alpha: Option<&AlphaCut<'_>>,
+) {
+    let Some([x0, x1, y0, y1]) = centre_box([a, b, c], n) else {
+        return;
+    };
+    let (x0, x1, y0, y1) = (x0.max(wx0), x1.min(wx1), y0.max(wy0), y1.min(wy1));
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    let (p1, p2, h1, h2, swapped) = if area > 0.0 {
+        (b, c, hb, hc, false)
+    } else {
+        (c, b, hc, hb, true)
+    };
+    let area = area.abs();
+    let bias = |from: [f64; 2], to: [f64; 2]| -> bool {
+        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+        (dy == 0.0 && dx > 0.0) || dy < 0.0
+    };
+    let edges = [
+        (p1, p2, bias(p1, p2)),
+        (p2, a, bias(p2, a)),
+        (a, p1, bias(a, p1)),
+    ];
+    let lines = edges.map(|(f, to, _)| (f, to));
+    for y in y0..=y1 {
+        let py = y as f64 + 0.5;
+        let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
+        let Some((xa, xb)) = row_span(lines, rows, x0, x1) else {
+            continue;
+        };
+        for x in xa..=xb {
+            let px = x as f64 + 0.5;
+            let w = std::array::from_fn::<f64, 3, _>(|k| {
+                let (f, to, _) = edges[k];
+                rows[k] - (to[1] - f[1]) * (px - f[0])
+            });
+            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2);
+            if !(inside(0) && inside(1) && inside(2)) {
+                continue;
+            }
+            let (l0, l1, l2) = (w[0] / area, w[1] / area, w[2] / area);
+            let height = l0 * ha + l1 * h1 + l2 * h2;
+            let i = y * n + x;
+            if height <= out[i] {
+                continue;
+            }
+            if let Some(alpha) = alpha {
+                let bary = if swapped {
+                    [l0 as f32, l2 as f32, l1 as f32]
+                } else {
+                    [l0 as f32, l1 as f32, l2 as f32]
+                };
+                if !alpha.keeps(t as u32, bary) {
+                    continue;
+                }
+            }
+            out[i] = height;
+        }
+    }
 }
 
 /// Whether every pixel of `[x0, x1] x [y0, y1]` (inclusive) is in `mask` (edge `n`).

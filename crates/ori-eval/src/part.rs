@@ -4,10 +4,11 @@
 //! through its cuts (the model's inside) is never seen.
 
 use ori_mesh::Mesh;
-use ori_raster::{EMPTY, OrthoView};
+use ori_raster::OrthoView;
 
 use crate::Mask;
-use crate::reference::{AlphaCut, raster};
+use crate::coverage::{CoverageMesh, heights};
+use crate::reference::AlphaCut;
 
 /// The model a part was clipped from, and the box it was clipped to (`[min, max]`).
 #[derive(Clone, Copy, Debug)]
@@ -18,12 +19,11 @@ pub struct Whole<'a> {
 
 /// [`Whole`] with what drawing it needs.
 pub(crate) struct WholeModel<'a> {
-    mesh: &'a Mesh,
+    mesh: CoverageMesh,
     /// The clip box grown by a millionth of its edge: points on its faces belong to the part
     /// (its mesh was cut there).
     own: [[f64; 3]; 2],
     alpha: Option<AlphaCut<'a>>,
-    single_sided: Vec<bool>,
 }
 
 impl<'a> WholeModel<'a> {
@@ -31,26 +31,35 @@ impl<'a> WholeModel<'a> {
         let [lo, hi] = whole.clip;
         let slack = 1e-6 * (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
         WholeModel {
-            mesh: whole.mesh,
+            mesh: CoverageMesh::new(whole.mesh, &whole.mesh.single_sided()),
             own: [lo.map(|c| c - slack), hi.map(|c| c + slack)],
             alpha: AlphaCut::new(whole.mesh),
-            single_sided: whole.mesh.single_sided(),
         }
     }
 
     /// The pixels of `part` where the whole model's nearest surface lies outside the box.
     pub fn in_front(&self, view: &OrthoView, part: &Mask) -> Mask {
-        let r = raster(self.mesh, self.alpha.as_ref(), &self.single_sided, view);
-        let [lo, hi] = self.own;
-        let inside = |p: [f64; 3]| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]);
         let n = view.size as usize;
         let mut out = Mask::new(view.size);
+        // The part's pixels are all the whole model's heights are needed at.
+        let Some(window) = part.ones().fold(None, |window: Option<[usize; 4]>, i| {
+            let (x, y) = (i % n, i / n);
+            Some(match window {
+                None => [x, x, y, y],
+                Some([x0, x1, y0, y1]) => [x0.min(x), x1.max(x), y0.min(y), y1.max(y)],
+            })
+        }) else {
+            return out;
+        };
+        let height = heights(view, &self.mesh, self.alpha.as_ref(), window);
+        let [lo, hi] = self.own;
+        let inside = |p: [f64; 3]| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]);
         for i in part.ones() {
-            if r.tri[i] == EMPTY {
+            if height[i] == f64::NEG_INFINITY {
                 continue;
             }
             let (x, y) = ((i % n) as f64 + 0.5, (i / n) as f64 + 0.5);
-            if !inside(view.unproject(x, y, view.depth_of_height(r.height[i]))) {
+            if !inside(view.unproject(x, y, view.depth_of_height(height[i]))) {
                 out.set(i);
             }
         }

@@ -4,7 +4,7 @@
 
 use ori_bake::Baker;
 use ori_mesh::{AlphaMode, Mesh, Wrap};
-use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, rasterize};
+use ori_raster::{EMPTY, Frame, OrthoView};
 use ori_relief::ReliefMap;
 
 use crate::{EvalError, NO_SOURCE, Render};
@@ -110,28 +110,6 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
         }
     };
     r as usize
-}
-
-/// The mesh through `view`, with the bake's alpha test and back-face culling
-/// (`single_sided`: [`Mesh::single_sided`]).
-pub(crate) fn raster(
-    mesh: &Mesh,
-    alpha: Option<&AlphaCut<'_>>,
-    single_sided: &[bool],
-    view: &OrthoView,
-) -> ori_raster::Raster {
-    let keep = |tri: u32, bary: [f32; 3]| alpha.is_some_and(|a| a.keeps(tri, bary));
-    let test = alpha.map(|a| AlphaTest {
-        masked: &a.masked,
-        keep: &keep,
-    });
-    rasterize(
-        view,
-        &mesh.positions,
-        &mesh.triangles,
-        test.as_ref(),
-        Some(single_sided),
-    )
 }
 
 /// The full reference: coverage and exact depth from the rasterizer, albedo and normal from a
