@@ -325,67 +325,118 @@ fn draw_height(
     n: usize,
     [wx0, wx1, wy0, wy1]: [usize; 4],
     t: usize,
-    [a, b, c]: [[f64; 2]; 3],
+    corners: [[f64; 2]; 3],
     [ha, hb, hc]: [f64; 3],
     area: f64,
     alpha: Option<&AlphaCut<'_>>,
 ) {
-    let Some([x0, x1, y0, y1]) = centre_box([a, b, c], n) else {
+    let Some([x0, x1, y0, y1]) = centre_box(corners, n) else {
         return;
     };
     let (x0, x1, y0, y1) = (x0.max(wx0), x1.min(wx1), y0.max(wy0), y1.min(wy1));
     if x0 > x1 || y0 > y1 {
         return;
     }
-    let (p1, p2, h1, h2, swapped) = if area > 0.0 {
-        (b, c, hb, hc, false)
-    } else {
-        (c, b, hc, hb, true)
-    };
-    let area = area.abs();
-    let bias = |from: [f64; 2], to: [f64; 2]| -> bool {
-        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
-        (dy == 0.0 && dx > 0.0) || dy < 0.0
-    };
-    let edges = [
-        (p1, p2, bias(p1, p2)),
-        (p2, a, bias(p2, a)),
-        (a, p1, bias(a, p1)),
-    ];
-    let lines = edges.map(|(f, to, _)| (f, to));
+    let tri = Triangle::new(corners, area);
+    let lines = tri.lines();
+    let (h1, h2) = if tri.swapped { (hc, hb) } else { (hb, hc) };
     for y in y0..=y1 {
-        let py = y as f64 + 0.5;
-        let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
+        let rows = tri.rows(y);
         let Some((xa, xb)) = row_span(lines, rows, x0, x1) else {
             continue;
         };
         for x in xa..=xb {
-            let px = x as f64 + 0.5;
-            let w = std::array::from_fn::<f64, 3, _>(|k| {
-                let (f, to, _) = edges[k];
-                rows[k] - (to[1] - f[1]) * (px - f[0])
-            });
-            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2);
-            if !(inside(0) && inside(1) && inside(2)) {
+            let Some(w) = tri.inside(rows, x) else {
                 continue;
-            }
-            let (l0, l1, l2) = (w[0] / area, w[1] / area, w[2] / area);
+            };
+            let [l0, l1, l2] = tri.weights(w);
             let height = l0 * ha + l1 * h1 + l2 * h2;
             let i = y * n + x;
             if height <= out[i] {
                 continue;
             }
-            if let Some(alpha) = alpha {
-                let bary = if swapped {
-                    [l0 as f32, l2 as f32, l1 as f32]
-                } else {
-                    [l0 as f32, l1 as f32, l2 as f32]
-                };
-                if !alpha.keeps(t as u32, bary) {
-                    continue;
-                }
+            if alpha.is_some_and(|alpha| !alpha.keeps(t as u32, tri.bary(w))) {
+                continue;
             }
             out[i] = height;
+        }
+    }
+}
+
+/// A triangle set up for `ori_raster`'s exact inside test, operation for operation:
+/// counter-clockwise on screen, with the top-left rule's edge ownership.
+struct Triangle {
+    /// (from, to, owns its pixel centres) per edge.
+    edges: [([f64; 2], [f64; 2], bool); 3],
+    /// The absolute area (twice the screen area).
+    area: f64,
+    /// Whether the last two corners were swapped to turn counter-clockwise.
+    swapped: bool,
+}
+
+impl Triangle {
+    /// `area`: `edge(a, b, c)`, non-zero and finite.
+    #[inline]
+    fn new([a, b, c]: [[f64; 2]; 3], area: f64) -> Triangle {
+        let (p1, p2, swapped) = if area > 0.0 {
+            (b, c, false)
+        } else {
+            (c, b, true)
+        };
+        // Top (horizontal, going right) and left (going up) edges own their pixels.
+        let owns = |from: [f64; 2], to: [f64; 2]| -> bool {
+            let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
+            (dy == 0.0 && dx > 0.0) || dy < 0.0
+        };
+        Triangle {
+            edges: [
+                (p1, p2, owns(p1, p2)),
+                (p2, a, owns(p2, a)),
+                (a, p1, owns(a, p1)),
+            ],
+            area: area.abs(),
+            swapped,
+        }
+    }
+
+    #[inline]
+    fn lines(&self) -> [([f64; 2], [f64; 2]); 3] {
+        self.edges.map(|(f, to, _)| (f, to))
+    }
+
+    /// The edge functions' row terms at pixel row `y`.
+    #[inline]
+    fn rows(&self, y: usize) -> [f64; 3] {
+        let py = y as f64 + 0.5;
+        self.edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]))
+    }
+
+    /// The edge functions at the centre of pixel `x` of the row, when it is inside.
+    #[inline]
+    fn inside(&self, rows: [f64; 3], x: usize) -> Option<[f64; 3]> {
+        let px = x as f64 + 0.5;
+        let w = std::array::from_fn::<f64, 3, _>(|k| {
+            let (f, to, _) = self.edges[k];
+            rows[k] - (to[1] - f[1]) * (px - f[0])
+        });
+        let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && self.edges[k].2);
+        (inside(0) && inside(1) && inside(2)).then_some(w)
+    }
+
+    /// The weights of the counter-clockwise corners (the first, then the two in set-up order).
+    #[inline]
+    fn weights(&self, w: [f64; 3]) -> [f64; 3] {
+        w.map(|w| w / self.area)
+    }
+
+    /// Barycentric weights in the triangle's own corner order, as the alpha test takes them.
+    #[inline]
+    fn bary(&self, w: [f64; 3]) -> [f32; 3] {
+        let [l0, l1, l2] = self.weights(w);
+        if self.swapped {
+            [l0 as f32, l2 as f32, l1 as f32]
+        } else {
+            [l0 as f32, l1 as f32, l2 as f32]
         }
     }
 }
@@ -427,25 +478,10 @@ fn draw(
             _ => return,
         },
     };
-    let (p1, p2, swapped) = if area > 0.0 {
-        (b, c, false)
-    } else {
-        (c, b, true)
-    };
-    let area = area.abs();
-    let bias = |from: [f64; 2], to: [f64; 2]| -> bool {
-        let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
-        (dy == 0.0 && dx > 0.0) || dy < 0.0
-    };
-    let edges = [
-        (p1, p2, bias(p1, p2)),
-        (p2, a, bias(p2, a)),
-        (a, p1, bias(a, p1)),
-    ];
-    let lines = edges.map(|(f, to, _)| (f, to));
+    let tri = Triangle::new([a, b, c], area);
+    let lines = tri.lines();
     for y in y0..=y1 {
-        let py = y as f64 + 0.5;
-        let rows = edges.map(|(f, to, _)| (to[0] - f[0]) * (py - f[1]));
+        let rows = tri.rows(y);
         let Some((xa, xb)) = row_span(lines, rows, x0, x1) else {
             continue;
         };
@@ -454,25 +490,11 @@ fn draw(
             if mask.get(i) {
                 continue;
             }
-            let px = x as f64 + 0.5;
-            let w = std::array::from_fn::<f64, 3, _>(|k| {
-                let (f, to, _) = edges[k];
-                rows[k] - (to[1] - f[1]) * (px - f[0])
-            });
-            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2);
-            if !(inside(0) && inside(1) && inside(2)) {
+            let Some(w) = tri.inside(rows, x) else {
                 continue;
-            }
-            if let Some(alpha) = alpha {
-                let (l0, l1, l2) = (w[0] / area, w[1] / area, w[2] / area);
-                let bary = if swapped {
-                    [l0 as f32, l2 as f32, l1 as f32]
-                } else {
-                    [l0 as f32, l1 as f32, l2 as f32]
-                };
-                if !alpha.keeps(t as u32, bary) {
-                    continue;
-                }
+            };
+            if alpha.is_some_and(|alpha| !alpha.keeps(t as u32, tri.bary(w))) {
+                continue;
             }
             mask.set(i);
         }
