@@ -7,7 +7,8 @@
 
 use ori_mesh::Mesh;
 use ori_raster::{
-    BEFORE_THE_FIRST, OrthoView, centre_box, centre_gap, covers_no_centre, faces_away, row_span,
+    BEFORE_THE_FIRST, OrthoView, centre_box, centre_gap, covers_no_centre, dot, faces_away,
+    row_span,
 };
 
 use crate::Mask;
@@ -118,6 +119,49 @@ impl CoverageMesh {
     }
 }
 
+/// `OrthoView::project` without the depth, operation for operation, so that screen positions
+/// are bit for bit the rasterizer's.
+struct Screen {
+    u: [f64; 3],
+    v: [f64; 3],
+    scale: f64,
+    /// `center[0]`: `project` subtracts it and adds `half_size` in turn.
+    cx: f64,
+    half_size: f64,
+    /// `center[1] + half_size`, as `project` computes it first.
+    cy: f64,
+}
+
+impl Screen {
+    fn new(view: &OrthoView) -> Screen {
+        Screen {
+            u: view.frame.u,
+            v: view.frame.v,
+            scale: f64::from(view.size) / (2.0 * view.half_size),
+            cx: view.center[0],
+            half_size: view.half_size,
+            cy: view.center[1] + view.half_size,
+        }
+    }
+
+    /// The column coordinate of a point whose `u . p` is `lu`.
+    #[inline]
+    fn x(&self, lu: f64) -> f64 {
+        (lu - self.cx + self.half_size) * self.scale
+    }
+
+    /// The row coordinate of a point whose `v . p` is `lv`.
+    #[inline]
+    fn y(&self, lv: f64) -> f64 {
+        (self.cy - lv) * self.scale
+    }
+
+    #[inline]
+    fn xy(&self, p: [f64; 3]) -> [f64; 2] {
+        [self.x(dot(self.u, p)), self.y(dot(self.v, p))]
+    }
+}
+
 /// Per-vertex data of one view, reused between views (a fresh multi-megabyte buffer per
 /// view costs page faults): the first test's column and row keys, read for every triangle,
 /// apart from the exact screen positions, read for the few that pass it, so that the hot
@@ -148,17 +192,11 @@ fn coverage_with(
 ) -> Mask {
     let n = view.size as usize;
     let mut mask = Mask::new(view.size);
-    // `OrthoView::project` without the depth, operation for operation.
-    let (u, v) = (view.frame.u, view.frame.v);
-    let scale = f64::from(view.size) / (2.0 * view.half_size);
-    let (cx, cy) = (view.center[0], view.center[1] + view.half_size);
+    let screen = Screen::new(view);
     corners.exact.clear();
-    corners.exact.extend(mesh.positions.iter().map(|p| {
-        let p = p.map(f64::from);
-        let lu = u[0] * p[0] + u[1] * p[1] + u[2] * p[2];
-        let lv = v[0] * p[0] + v[1] * p[1] + v[2] * p[2];
-        [(lu - cx + view.half_size) * scale, (cy - lv) * scale]
-    }));
+    corners
+        .exact
+        .extend(mesh.positions.iter().map(|p| screen.xy(p.map(f64::from))));
     // A first test cheaper than the exact one: a triangle whose three corners lie strictly
     // between the same two pixel-centre columns (or rows) covers no pixel centre.
     corners.keys.clear();
@@ -260,13 +298,7 @@ fn heights_with(
         scratch.generation = 1;
     }
     let generation = scratch.generation;
-    // `OrthoView::project`, operation for operation.
-    let frame = view.frame;
-    let scale = f64::from(view.size) / (2.0 * view.half_size);
-    let (cx, cy) = (view.center[0], view.center[1] + view.half_size);
-    let x_of = |lu: f64| (lu - cx + view.half_size) * scale;
-    let y_of = |lv: f64| (cy - lv) * scale;
-    let dot = |a: [f64; 3], p: [f64; 3]| a[0] * p[0] + a[1] * p[1] + a[2] * p[2];
+    let (frame, screen) = (view.frame, Screen::new(view));
     // A run is skipped when its box lies more than a pixel beyond the window's outer pixel
     // centres (the margin dwarfs any rounding; a NaN skips nothing).
     let (left, right) = (wx0 as f64 - 0.5, wx1 as f64 + 1.5);
@@ -278,10 +310,10 @@ fn heights_with(
     for (k, (run, chunk)) in runs.enumerate() {
         let (lu, hu) = (dot(frame.u, chunk.center), extent(frame.u, chunk.half));
         let (lv, hv) = (dot(frame.v, chunk.center), extent(frame.v, chunk.half));
-        if x_of(lu + hu) < left
-            || x_of(lu - hu) > right
-            || y_of(lv - hv) < top
-            || y_of(lv + hv) > bottom
+        if screen.x(lu + hu) < left
+            || screen.x(lu - hu) > right
+            || screen.y(lv - hv) < top
+            || screen.y(lv + hv) > bottom
         {
             continue;
         }
@@ -292,10 +324,10 @@ fn heights_with(
                     continue;
                 }
                 let p = mesh.positions[i].map(f64::from);
-                let screen = [x_of(dot(frame.u, p)), y_of(dot(frame.v, p))];
-                scratch.exact[i] = screen;
+                let xy = screen.xy(p);
+                scratch.exact[i] = xy;
                 scratch.height[i] = dot(frame.d, p);
-                scratch.keys[i] = screen.map(|c| centre_gap(c, view.size));
+                scratch.keys[i] = xy.map(|c| centre_gap(c, view.size));
                 scratch.stamp[i] = generation;
             }
             let [ka, kb, kc] = tri.map(|i| scratch.keys[i as usize]);

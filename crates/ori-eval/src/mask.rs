@@ -86,6 +86,19 @@ impl Mask {
         })
     }
 
+    /// The smallest box `[x0, x1, y0, y1]` (inclusive) holding every pixel in the set; `None`
+    /// when it is empty.
+    pub(crate) fn bounds(&self) -> Option<[usize; 4]> {
+        let n = self.size as usize;
+        self.ones().fold(None, |bounds, i| {
+            let (x, y) = (i % n, i / n);
+            Some(match bounds {
+                None => [x, x, y, y],
+                Some([x0, x1, y0, y1]) => [x0.min(x), x1.max(x), y0.min(y), y1.max(y)],
+            })
+        })
+    }
+
     /// Indices of the pixels in the set within `start..end`, in increasing order.
     pub fn ones_in(&self, start: usize, end: usize) -> impl Iterator<Item = usize> + '_ {
         let end = end.min(self.size as usize * self.size as usize);

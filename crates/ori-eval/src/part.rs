@@ -42,13 +42,7 @@ impl<'a> WholeModel<'a> {
         let n = view.size as usize;
         let mut out = Mask::new(view.size);
         // The part's pixels are all the whole model's heights are needed at.
-        let Some(window) = part.ones().fold(None, |window: Option<[usize; 4]>, i| {
-            let (x, y) = (i % n, i / n);
-            Some(match window {
-                None => [x, x, y, y],
-                Some([x0, x1, y0, y1]) => [x0.min(x), x1.max(x), y0.min(y), y1.max(y)],
-            })
-        }) else {
+        let Some(window) = part.bounds() else {
             return out;
         };
         let height = heights(view, &self.mesh, self.alpha.as_ref(), window);
