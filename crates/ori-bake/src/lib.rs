@@ -30,7 +30,7 @@ mod sample;
 use ori_mesh::{AlphaMode, Mesh};
 use std::sync::Arc;
 
-use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, Raster, rasterize, rasterize_scales};
+use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, Raster, rasterize_scales};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -131,26 +131,34 @@ fn validate_any_resolution(params: &BakeParams) -> Result<(), BakeError> {
     .validate()
 }
 
-/// What every bake of one mesh shares: its textures, decoded and mipmapped, and which
-/// triangles are alpha-tested and culled from behind. Keep one to bake a mesh many times.
-pub struct Baker<'m> {
-    mesh: &'m Mesh,
+/// What every bake of one mesh shares: its textures, decoded and mipmapped, its triangles in
+/// the order that draws fastest, and which of them are alpha-tested and culled from behind.
+/// Keep one to bake a mesh many times.
+pub struct Baker {
+    /// The mesh's surface in [`Mesh::spatial_order`] (without its textures): drawn and shaded
+    /// in that order, so that neighbouring pixels read neighbouring memory. Rasters say which
+    /// triangle of the original mesh they saw.
+    mesh: Mesh,
+    /// The original index of each triangle of `mesh`.
+    original: Vec<u32>,
     textures: Arc<Textures>,
-    /// Per triangle: alpha-tested, and culled from behind (as the reference mesh is drawn).
+    /// Per triangle of `mesh`: alpha-tested, and culled from behind (as the reference mesh is
+    /// drawn).
     masked: Vec<bool>,
     single_sided: Vec<bool>,
 }
 
-impl<'m> Baker<'m> {
-    pub fn new(mesh: &'m Mesh) -> Baker<'m> {
+impl Baker {
+    pub fn new(mesh: &Mesh) -> Baker {
         Baker::with_textures(mesh, Arc::new(Textures::new(mesh)))
     }
 
     /// A baker of a mesh with the same materials (so the same texture indices) as the one
     /// `textures` were made for, such as a part of it; its own textures are not read.
-    pub fn with_textures(mesh: &'m Mesh, textures: Arc<Textures>) -> Baker<'m> {
+    pub fn with_textures(mesh: &Mesh, textures: Arc<Textures>) -> Baker {
+        let original = mesh.spatial_order();
+        let mesh = mesh.reordered(&original);
         Baker {
-            mesh,
             textures,
             masked: mesh
                 .triangle_materials
@@ -158,6 +166,8 @@ impl<'m> Baker<'m> {
                 .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
                 .collect(),
             single_sided: mesh.single_sided(),
+            mesh,
+            original,
         }
     }
 
@@ -233,8 +243,8 @@ impl<'m> Baker<'m> {
     }
 }
 
-fn bake_one(baker: &Baker<'_>, view: OrthoView, supersample: u32) -> (ReliefMap, Raster) {
-    let (mesh, frame) = (baker.mesh, view.frame);
+fn bake_one(baker: &Baker, view: OrthoView, supersample: u32) -> (ReliefMap, Raster) {
+    let (mesh, frame) = (&baker.mesh, view.frame);
     let shader = &sample::Shader {
         mesh,
         textures: &baker.textures,
@@ -251,24 +261,16 @@ fn bake_one(baker: &Baker<'_>, view: OrthoView, supersample: u32) -> (ReliefMap,
     let s = supersample as usize;
     let fine_view = view.with_size(view.size * supersample);
     // Depth and coverage at texel centres, colour and normal from the sub-samples: one pass.
-    let mut rasters = if s == 1 {
-        vec![rasterize(
-            &view,
-            &mesh.positions,
-            &mesh.triangles,
-            alpha,
-            single_sided,
-        )]
-    } else {
-        rasterize_scales(
-            &view,
-            &mesh.positions,
-            &mesh.triangles,
-            alpha,
-            single_sided,
-            &[1, supersample],
-        )
-    };
+    let scales: &[u32] = if s == 1 { &[1] } else { &[1, supersample] };
+    let mut rasters = rasterize_scales(
+        &view,
+        &mesh.positions,
+        &mesh.triangles,
+        alpha,
+        single_sided,
+        Some(&baker.original),
+        scales,
+    );
     let fine = rasters.pop().expect("at least one raster");
     let centre = rasters.pop().unwrap_or_else(|| fine.clone());
     // Texture level per triangle: texels of level 0 per sample.
@@ -378,6 +380,11 @@ fn bake_one(baker: &Baker<'_>, view: OrthoView, supersample: u32) -> (ReliefMap,
         normal,
         albedo,
     };
+    // The raster names the original mesh's triangles.
+    let mut centre = centre;
+    for t in centre.tri.iter_mut().filter(|t| **t != EMPTY) {
+        *t = baker.original[*t as usize];
+    }
     (map, centre)
 }
 

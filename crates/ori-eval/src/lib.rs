@@ -115,7 +115,7 @@ pub use render::{Layer, NO_SOURCE, Render};
 /// The full render of any mesh (the baker's) through `view` (what
 /// [`Evaluator::render_mesh`] draws for a whole model), for drawing another mesh, such as a
 /// simplified one, in the evaluation view of the original.
-pub fn render_mesh(baker: &ori_bake::Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
+pub fn render_mesh(baker: &ori_bake::Baker, view: &OrthoView) -> Result<Render, EvalError> {
     reference::render(baker, view)
 }
 
@@ -222,7 +222,7 @@ pub struct Evaluator<'a> {
     params: EvalParams,
     alpha: Option<reference::AlphaCut<'a>>,
     /// The mesh's textures, read by every reference render (made by the first).
-    baker: std::sync::OnceLock<ori_bake::Baker<'a>>,
+    baker: std::sync::OnceLock<ori_bake::Baker>,
     /// Per map, where its walls are (for the fast coverage test).
     walls: Vec<WallMap>,
     /// Per map, its occupied volume and column grid (rule 2).

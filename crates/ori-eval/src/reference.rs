@@ -117,7 +117,7 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
 /// the impostors, so colour errors measure the impostors and not a difference of shaders).
 /// The bake's alpha test and culling are the reference's (see [`AlphaCut`]), so its raster
 /// of texel centres is the reference's raster.
-pub(crate) fn render(baker: &Baker<'_>, view: &OrthoView) -> Result<Render, EvalError> {
+pub(crate) fn render(baker: &Baker, view: &OrthoView) -> Result<Render, EvalError> {
     let (map, r) = baker
         .bake_view(view, 2)
         .map_err(|e| EvalError::View(e.to_string()))?;

@@ -314,6 +314,87 @@ impl Mesh {
         (lo, hi)
     }
 
+    /// Triangle indices sorted along a Morton curve of the triangles' centroids: neighbours
+    /// in this order are neighbours in space, so drawing in it reads vertices that are near
+    /// in memory once [`Mesh::reordered`] has renumbered them.
+    pub fn spatial_order(&self) -> Vec<u32> {
+        let (lo, hi) = self.bounds();
+        let cell = |c: f32, k: usize| -> u64 {
+            let t = if hi[k] > lo[k] {
+                (c - lo[k]) / (hi[k] - lo[k])
+            } else {
+                0.0
+            };
+            (t.clamp(0.0, 1.0) * 1023.0) as u64
+        };
+        let morton = |t: &[u32; 3]| -> u64 {
+            let mut code = 0u64;
+            for k in 0..3 {
+                let c = t
+                    .iter()
+                    .map(|&i| self.positions[i as usize][k])
+                    .sum::<f32>()
+                    / 3.0;
+                let v = cell(c, k);
+                for bit in 0..10 {
+                    code |= ((v >> bit) & 1) << (3 * bit + k);
+                }
+            }
+            code
+        };
+        let mut order: Vec<(u64, u32)> = self
+            .triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| (morton(t), i as u32))
+            .collect();
+        order.sort_unstable();
+        order.into_iter().map(|(_, t)| t).collect()
+    }
+
+    /// The same surface with its triangles in `order` (a permutation of their indices), each
+    /// keeping its corners' order and material, and the vertices renumbered in order of
+    /// first use, those no triangle uses last (so the positions' bounds are unchanged).
+    /// Textures are not copied: the result is for drawing with textures already decoded.
+    pub fn reordered(&self, order: &[u32]) -> Mesh {
+        let mut remap = vec![u32::MAX; self.positions.len()];
+        let mut used = Vec::with_capacity(self.positions.len());
+        let triangles = order
+            .iter()
+            .map(|&t| {
+                self.triangles[t as usize].map(|v| {
+                    let slot = &mut remap[v as usize];
+                    if *slot == u32::MAX {
+                        *slot = used.len() as u32;
+                        used.push(v as usize);
+                    }
+                    *slot
+                })
+            })
+            .collect();
+        used.extend((0..self.positions.len()).filter(|&v| remap[v] == u32::MAX));
+        let pick = |values: &[[f32; 3]]| used.iter().map(|&v| values[v]).collect();
+        Mesh {
+            positions: pick(&self.positions),
+            normals: pick(&self.normals),
+            uvs: self
+                .uvs
+                .as_ref()
+                .map(|uvs| used.iter().map(|&v| uvs[v]).collect()),
+            colors: self
+                .colors
+                .as_ref()
+                .map(|colors| used.iter().map(|&v| colors[v]).collect()),
+            triangles,
+            triangle_materials: order
+                .iter()
+                .map(|&t| self.triangle_materials[t as usize])
+                .collect(),
+            materials: self.materials.clone(),
+            textures: Vec::new(),
+        }
+    }
+
     /// Per triangle, whether its material is single-sided: drawn only from the side its
     /// winding faces (counter-clockwise seen from the front), as a real-time engine culls
     /// back faces. glTF says so per material; OBJ and PLY carry no flag and are single-sided,

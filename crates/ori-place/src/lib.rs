@@ -349,7 +349,7 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 /// The measured state of a search: candidate maps and the masks computed so far.
 struct Search<'a> {
     mesh: &'a Mesh,
-    baker: Baker<'a>,
+    baker: Baker,
     measure: &'a Measure<'a>,
     /// The planned directions, then the evaluation directions.
     candidates: &'a [[f64; 3]],

@@ -225,7 +225,7 @@ pub fn rasterize(
     alpha: Option<&AlphaTest<'_>>,
     single_sided: Option<&[bool]>,
 ) -> Raster {
-    let mut out = rasterize_scales(view, positions, triangles, alpha, single_sided, &[1]);
+    let mut out = rasterize_scales(view, positions, triangles, alpha, single_sided, None, &[1]);
     out.pop().expect("one scale, one raster")
 }
 
@@ -233,6 +233,12 @@ pub fn rasterize(
 /// the triangles: raster `k` has `view.size * scales[k]` pixels per edge. Scales must be
 /// powers of two, so that scaled screen coordinates are exact and each raster is
 /// bit-identical to `rasterize(&view.with_size(view.size * scale), ..)`.
+///
+/// Where two triangles meet a pixel centre at the same height, the one drawn first keeps it;
+/// `original`, when the triangles are a reordering of a mesh's (such as
+/// `Mesh::spatial_order`, which draws faster), gives the index each had there, and the lower
+/// one keeps it instead, so that the rasters are those of drawing in the original order
+/// (with the indices of this order in [`Raster::tri`]).
 ///
 /// # Panics
 /// If a scale is not a power of two, or there are more than 32 (a programming error).
@@ -242,6 +248,7 @@ pub fn rasterize_scales(
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
     single_sided: Option<&[bool]>,
+    original: Option<&[u32]>,
     scales: &[u32],
 ) -> Vec<Raster> {
     assert!(
@@ -310,7 +317,8 @@ pub fn rasterize_scales(
             // Dividing by a power of two is exact.
             let down = f64::from(finest / scale);
             let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] / down, p[1] / down, p[2]]);
-            draw(out, t, a, b, c, masked.then_some(alpha).flatten(), culled);
+            let alpha = masked.then_some(alpha).flatten();
+            draw(out, t, [a, b, c], alpha, culled, original);
         }
     }
     outs
@@ -320,11 +328,10 @@ pub fn rasterize_scales(
 fn draw(
     out: &mut Raster,
     t: usize,
-    a: [f64; 3],
-    b: [f64; 3],
-    c: [f64; 3],
+    [a, b, c]: [[f64; 3]; 3],
     alpha: Option<&AlphaTest<'_>>,
     single_sided: bool,
+    original: Option<&[u32]>,
 ) {
     let n = out.size as usize;
     let Some([x0, x1, y0, y1]) = centre_box([a, b, c].map(|p| [p[0], p[1]]), n) else {
@@ -378,7 +385,8 @@ fn draw(
             let (l0, l1, l2) = (w0 / area, w1 / area, w2 / area);
             let h = l0 * a[2] + l1 * p1[2] + l2 * p2[2];
             let i = y * n + x;
-            if h <= out.height[i] {
+            let nearest = out.height[i];
+            if h < nearest || (h == nearest && !first_at_a_tie(t, out.tri[i], original)) {
                 continue;
             }
             let bary = if swapped {
@@ -396,6 +404,13 @@ fn draw(
             out.bary[i] = bary;
         }
     }
+}
+
+/// Whether triangle `t` keeps a pixel centre that `held` (drawn before it) meets at the same
+/// height: when it comes first in the original order ([`rasterize_scales`]).
+#[inline]
+fn first_at_a_tie(t: usize, held: u32, original: Option<&[u32]>) -> bool {
+    original.is_some_and(|o| o[t] < o[held as usize])
 }
 
 /// The pixels of `x0..=x1` in one row whose centres can pass the three edge tests of a
@@ -634,7 +649,7 @@ mod tests {
         ]);
         t.push([base, base + 1, base + 2]);
         let view = unit_square_view();
-        let both = rasterize_scales(&view, &p, &t, None, None, &[1, 4]);
+        let both = rasterize_scales(&view, &p, &t, None, None, None, &[1, 4]);
         assert!(
             both[0].tri.contains(&(t.len() as u32 - 1)),
             "the sliver is drawn"
@@ -648,6 +663,48 @@ mod tests {
             both[1],
             rasterize(&view.with_size(8 * 4), &p, &t, None, None)
         );
+    }
+
+    #[test]
+    fn another_order_with_the_original_indices_draws_the_same_rasters() {
+        // Overlapping flat triangles at two heights, so that many pixel centres are met at
+        // the same height by several triangles (ties), drawn in reverse order.
+        let view = unit_square_view();
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |k: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % k
+        };
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        for i in 0..400u32 {
+            let z = if next(2) == 0 { 0.5 } else { 1.5 };
+            for _ in 0..3 {
+                p.push([next(65) as f32 / 64.0, next(65) as f32 / 64.0, z]);
+            }
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let scales = [1, 4];
+        let drawn = rasterize_scales(&view, &p, &t, None, None, None, &scales);
+        let original: Vec<u32> = (0..t.len() as u32).rev().collect();
+        let reversed: Vec<[u32; 3]> = original.iter().map(|&k| t[k as usize]).collect();
+        let named = |rasters: Vec<Raster>| -> Vec<Raster> {
+            rasters
+                .into_iter()
+                .map(|mut r| {
+                    for k in r.tri.iter_mut().filter(|k| **k != EMPTY) {
+                        *k = original[*k as usize];
+                    }
+                    r
+                })
+                .collect()
+        };
+        let again = rasterize_scales(&view, &p, &reversed, None, None, Some(&original), &scales);
+        assert_eq!(named(again), drawn);
+        // Without the original indices the other order keeps other triangles at the ties.
+        let other = rasterize_scales(&view, &p, &reversed, None, None, None, &scales);
+        assert_ne!(named(other), drawn);
     }
 
     #[test]
@@ -677,7 +734,7 @@ mod tests {
         }
         let single: Vec<bool> = (0..t.len()).map(|i| i % 2 == 0).collect();
         let scales = [1, 2, 4];
-        let fast = rasterize_scales(&view, &p, &t, None, Some(&single), &scales);
+        let fast = rasterize_scales(&view, &p, &t, None, Some(&single), None, &scales);
         let fine = view.with_size(8 * 4);
         for (raster, scale) in fast.iter().zip(scales) {
             let size = 8 * scale;
@@ -694,7 +751,7 @@ mod tests {
                     let q = fine.project(p[v as usize].map(f64::from));
                     [q[0] / down, q[1] / down, q[2]]
                 });
-                draw(&mut exact, i, a, b, c, None, single[i]);
+                draw(&mut exact, i, [a, b, c], None, single[i], None);
             }
             assert!(exact.covered() > 0);
             assert_eq!(*raster, exact, "scale {scale}");
@@ -719,7 +776,7 @@ mod tests {
                     "triangle {tri} from {d:?}"
                 );
             }
-            let both = rasterize_scales(&view, &p, &t, None, Some(&single), &[1, 2]);
+            let both = rasterize_scales(&view, &p, &t, None, Some(&single), None, &[1, 2]);
             assert_eq!(both[0], r);
         }
         // The rule agrees with the world normal for an oblique view.

@@ -2,9 +2,9 @@
 //! edge-collapse simplifier until its vertex and index buffers fit the budget, drawn with its
 //! own attributes (the evaluator's reference render of the simplified mesh).
 
-use std::sync::{Arc, OnceLock};
+use std::sync::OnceLock;
 
-use ori_bake::{Baker, Textures};
+use ori_bake::Baker;
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
 
@@ -13,9 +13,10 @@ use crate::{Drawn, Primitive, Rival, RivalError, Technique};
 /// A mesh within a byte budget.
 pub struct SimplifiedMesh {
     mesh: Mesh,
-    /// Its textures, decoded at the first view drawn, for every view (none is drawn when
-    /// the whole mesh fits: the measure draws the reference instead).
-    textures: OnceLock<Arc<Textures>>,
+    /// Its baker (textures decoded, triangles in drawing order), made at the first view
+    /// drawn, for every view (none is drawn when the whole mesh fits: the measure draws the
+    /// reference instead).
+    baker: OnceLock<Box<Baker>>,
     /// Triangles of the original.
     original: usize,
 }
@@ -105,7 +106,7 @@ impl SimplifiedMesh {
         if mesh_bytes(per_vertex, mesh.positions.len(), original) <= budget {
             return Ok(SimplifiedMesh {
                 mesh: mesh.clone(),
-                textures: OnceLock::new(),
+                baker: OnceLock::new(),
                 original,
             });
         }
@@ -135,7 +136,7 @@ impl SimplifiedMesh {
         })?;
         Ok(SimplifiedMesh {
             mesh,
-            textures: OnceLock::new(),
+            baker: OnceLock::new(),
             original,
         })
     }
@@ -219,12 +220,9 @@ impl Rival for SimplifiedMesh {
     }
 
     fn draw(&self, view: &OrthoView) -> Result<Drawn, RivalError> {
-        let textures = self
-            .textures
-            .get_or_init(|| Arc::new(Textures::new(&self.mesh)))
-            .clone();
+        let baker = self.baker.get_or_init(|| Box::new(Baker::new(&self.mesh)));
         Ok(Drawn {
-            render: ori_eval::render_mesh(&Baker::with_textures(&self.mesh, textures), view)?,
+            render: ori_eval::render_mesh(baker, view)?,
             count: self.mesh.triangles.len() as u32,
         })
     }
