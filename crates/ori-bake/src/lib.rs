@@ -157,7 +157,14 @@ impl Baker {
     /// `textures` were made for, such as a part of it; its own textures are not read.
     pub fn with_textures(mesh: &Mesh, textures: Arc<Textures>) -> Baker {
         let original = mesh.spatial_order();
-        let mesh = mesh.reordered(&original);
+        Baker::in_order(mesh.reordered(&original), original, textures)
+    }
+
+    /// [`Baker::with_textures`] for `mesh.reordered(&original)` of a mesh whose order is
+    /// `original` (its own [`Mesh::spatial_order`] or another mesh's of the same
+    /// triangles, such as the mesh it was warped from): the maps and rasters are those of the
+    /// mesh in its original order, and making the baker costs no sort.
+    pub fn in_order(mesh: Mesh, original: Vec<u32>, textures: Arc<Textures>) -> Baker {
         Baker {
             textures,
             masked: mesh

@@ -9,7 +9,9 @@
 //! camera at distance D becomes (x D/(D-z), y D/(D-z), z D/(D-z)): on the plane z = 0 nothing
 //! moves, and the depth order along each camera ray is kept.
 
-use ori_bake::BakeParams;
+use std::sync::Arc;
+
+use ori_bake::{BakeParams, Baker, Textures};
 use ori_mesh::Mesh;
 use ori_raster::Frame;
 use ori_relief::ReliefMap;
@@ -90,16 +92,19 @@ impl PerspectiveCamera {
                 ),
             });
         }
+        // Sorted and decoded once: each direction's warp keeps the triangles in order.
+        let order = mesh.spatial_order();
+        let ordered = mesh.reordered(&order);
+        let textures = Arc::new(Textures::new(mesh));
         directions
             .par_iter()
             .map(|&d| {
-                let warped = self.warp(mesh, centre, radius, d);
-                let mut set =
-                    ori_bake::bake_any_resolution(&warped, &[d], params).map_err(|e| {
-                        RivalError::Bake {
-                            technique: Technique::BillboardsPerspective.name(),
-                            reason: e.to_string(),
-                        }
+                let warped = self.warp(&ordered, centre, radius, d);
+                let mut set = Baker::in_order(warped, order.clone(), textures.clone())
+                    .bake_any_resolution(&[d], params)
+                    .map_err(|e| RivalError::Bake {
+                        technique: Technique::BillboardsPerspective.name(),
+                        reason: e.to_string(),
                     })?;
                 Ok(set.maps.pop().expect("one direction, one map"))
             })
