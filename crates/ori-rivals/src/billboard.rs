@@ -11,9 +11,8 @@ use ori_relief::{EMPTY_DEPTH, ReliefMap};
 use crate::perspective::PerspectiveCamera;
 use crate::{Drawn, Primitive, Rival, RivalError, Technique, billboard_bytes, within_budget};
 
-/// The non-empty texel of `map` that world point `p` projects to (nearest texel).
-pub(crate) fn texel_at(map: &ReliefMap, p: [f64; 3]) -> Option<usize> {
-    let [x, y, _] = map.view.project(p);
+/// The non-empty texel of `map` at texel coordinates `(x, y)` (`OrthoView::project`'s).
+pub(crate) fn texel_at(map: &ReliefMap, x: f64, y: f64) -> Option<usize> {
     let n = map.size() as usize;
     if !(x >= 0.0 && y >= 0.0) {
         return None;
@@ -40,16 +39,68 @@ pub(crate) fn world_normal(map: &ReliefMap, t: usize) -> [f32; 3] {
     map.view.frame.to_world(l).map(|c| c as f32)
 }
 
-/// The ray of pixel `i` of `view`: a point on its near plane; rays run along `-view.frame.d`.
-pub(crate) fn pixel_origin(view: &OrthoView, i: usize) -> [f64; 3] {
-    let n = view.size as usize;
-    let (x, y) = ((i % n) as f64 + 0.5, (i / n) as f64 + 0.5);
-    view.unproject(x, y, 0.0)
+/// The ray of pixel `(x, y)` of `view`: a point on its near plane; rays run along
+/// `-view.frame.d`.
+fn pixel_origin(view: &OrthoView, x: usize, y: usize) -> [f64; 3] {
+    view.unproject(x as f64 + 0.5, y as f64 + 0.5, 0.0)
+}
+
+/// Where the rays of a view's pixels meet a plane, as `N` values per pixel that are affine in
+/// its column and row (texel coordinates of a map, heights along directions): taken from
+/// their exact values at three pixels, so that each pixel costs three multiply-adds a value
+/// instead of an unprojection, an intersection and a projection.
+pub(crate) struct PlaneHits<const N: usize> {
+    first: [f64; N],
+    per_column: [f64; N],
+    per_row: [f64; N],
+}
+
+impl<const N: usize> PlaneHits<N> {
+    /// `values` of the point where the ray of each pixel of `view` meets the plane through
+    /// `point` with normal `normal`; `None` when the rays run along the plane.
+    pub fn new(
+        view: &OrthoView,
+        point: [f64; 3],
+        normal: [f64; 3],
+        values: impl Fn([f64; 3]) -> [f64; N],
+    ) -> Option<PlaneHits<N>> {
+        let w = view.frame.d;
+        let last = view.size.max(2) as usize - 1;
+        let at = |x, y| hit_plane(pixel_origin(view, x, y), w, point, normal).map(&values);
+        let (first, right, down) = (at(0, 0)?, at(last, 0)?, at(0, last)?);
+        let step = |to: [f64; N]| std::array::from_fn(|k| (to[k] - first[k]) / last as f64);
+        Some(PlaneHits {
+            first,
+            per_column: step(right),
+            per_row: step(down),
+        })
+    }
+
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> [f64; N] {
+        let (x, y) = (x as f64, y as f64);
+        std::array::from_fn(|k| self.first[k] + x * self.per_column[k] + y * self.per_row[k])
+    }
+}
+
+/// The texel coordinates in `map` and the height along `view`'s direction of where each
+/// pixel's ray meets the plane through `point` perpendicular to the map's direction (a
+/// billboard's quad).
+pub(crate) fn quad_hits(
+    view: &OrthoView,
+    map: &ReliefMap,
+    point: [f64; 3],
+) -> Option<PlaneHits<3>> {
+    let w = view.frame.d;
+    PlaneHits::new(view, point, map.view.frame.d, |p| {
+        let [x, y, _] = map.view.project(p);
+        [x, y, dot(p, w)]
+    })
 }
 
 /// Where the ray from `o` along `-w` meets the plane through `c` with normal `d` (`None`
 /// when the ray runs along the plane).
-pub(crate) fn hit_plane(o: [f64; 3], w: [f64; 3], c: [f64; 3], d: [f64; 3]) -> Option<[f64; 3]> {
+fn hit_plane(o: [f64; 3], w: [f64; 3], c: [f64; 3], d: [f64; 3]) -> Option<[f64; 3]> {
     let wd = dot(w, d);
     if wd.abs() < 1e-9 {
         return None;
@@ -121,10 +172,10 @@ impl PixelBox {
         self.x0 >= self.x1 || self.y0 >= self.y1
     }
 
-    /// Each pixel index inside, row by row.
-    pub fn pixels(self, size: u32) -> impl Iterator<Item = usize> {
+    /// Each pixel inside, row by row: column, row and index in an image `size` wide.
+    pub fn pixels(self, size: u32) -> impl Iterator<Item = (usize, usize, usize)> {
         let n = size as usize;
-        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| y * n + x))
+        (self.y0..self.y1).flat_map(move |y| (self.x0..self.x1).map(move |x| (x, y, y * n + x)))
     }
 }
 
@@ -289,16 +340,16 @@ impl Rival for Billboards {
         let map = &self.maps[self.nearest(w)];
         let mut render = Render::empty(view.size);
         let whole = PixelBox::whole(map.size() as usize);
-        for i in window_pixels(view, map, self.centre, whole).pixels(view.size) {
-            let o = pixel_origin(view, i);
-            let Some(p) = hit_plane(o, w, self.centre, map.view.frame.d) else {
-                continue;
-            };
-            let Some(t) = texel_at(map, p) else {
+        let Some(hits) = quad_hits(view, map, self.centre) else {
+            return Ok(Drawn { render, count: 1 });
+        };
+        for (x, y, i) in window_pixels(view, map, self.centre, whole).pixels(view.size) {
+            let [tx, ty, height] = hits.at(x, y);
+            let Some(t) = texel_at(map, tx, ty) else {
                 continue;
             };
             render.coverage.set(i);
-            render.depth[i] = view.depth_of_height(dot(p, w)) as f32;
+            render.depth[i] = view.depth_of_height(height) as f32;
             render.albedo[i] = map.albedo[t];
             render.normal[i] = world_normal(map, t);
         }

@@ -32,7 +32,7 @@ use ori_raster::{Frame, OrthoView, dot, normalize};
 use ori_relief::ReliefMap;
 use rayon::prelude::*;
 
-use crate::billboard::{PixelBox, hit_plane, pixel_origin, texel_at, window_pixels, world_normal};
+use crate::billboard::{PixelBox, quad_hits, texel_at, window_pixels, world_normal};
 use crate::{Drawn, Primitive, Rival, RivalError, Technique, billboard_bytes, within_budget};
 
 /// Largest angle between a face's normal and its cluster's plane.
@@ -589,15 +589,15 @@ impl Rival for BillboardCloud {
             }
             let side = if facing > 0.0 { 1.0 } else { -1.0 };
             drawn += 1;
-            for i in window_pixels(view, &card.map, card.centre, card.occupied).pixels(view.size) {
-                let o = pixel_origin(view, i);
-                let Some(p) = hit_plane(o, w, card.centre, f.d) else {
+            let Some(hits) = quad_hits(view, &card.map, card.centre) else {
+                continue;
+            };
+            let window = window_pixels(view, &card.map, card.centre, card.occupied);
+            for (x, y, i) in window.pixels(view.size) {
+                let [tx, ty, height] = hits.at(x, y);
+                let Some(t) = texel_at(&card.map, tx, ty) else {
                     continue;
                 };
-                let Some(t) = texel_at(&card.map, p) else {
-                    continue;
-                };
-                let height = dot(p, w);
                 if height <= nearest[i] {
                     continue;
                 }

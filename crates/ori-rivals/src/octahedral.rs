@@ -14,7 +14,7 @@ use ori_raster::{OrthoView, dot};
 use ori_relief::ReliefMap;
 
 use crate::billboard::{
-    PixelBox, hit_plane, pixel_origin, surface_height, texel_at, window_pixels, world_normal,
+    PixelBox, PlaneHits, surface_height, texel_at, window_pixels, world_normal,
 };
 use crate::{Drawn, Primitive, Rival, RivalError, Technique, relief_bytes, within_budget};
 
@@ -222,34 +222,45 @@ impl Rival for Octahedral {
                 }
             })
             .fold(PixelBox::empty(), PixelBox::union);
-        for i in pixels.pixels(view.size) {
-            let o = pixel_origin(view, i);
-            let (mut alpha, mut colour, mut normal, mut height) = (0.0, [0.0; 3], [0.0; 3], 0.0);
-            for &(k, weight) in &frames {
-                if weight <= 0.0 {
-                    continue;
-                }
+        // Per frame: where each pixel's ray meets the plane the lookup starts from, in texel
+        // coordinates, with its heights along the frame's and the view's directions; and
+        // how far the texel coordinates move per unit of the parallax step along the ray.
+        let lookups: Vec<_> = frames
+            .iter()
+            .filter(|&&(_, weight)| weight > 0.0)
+            .filter_map(|&(k, weight)| {
                 let map = &self.maps[k];
                 let d = map.view.frame.d;
                 let wd = dot(w, d);
-                // Where the ray crosses the frame's plane through the centre, or the quad's
-                // where it runs along the frame's.
-                let start = if wd > MIN_PARALLAX_COS { d } else { w };
-                let Some(p0) = hit_plane(o, w, self.centre, start) else {
+                let parallax = wd > MIN_PARALLAX_COS;
+                let start = if parallax { d } else { w };
+                let hits = PlaneHits::new(view, self.centre, start, |p| {
+                    let [x, y, _] = map.view.project(p);
+                    [x, y, dot(p, d), dot(p, w)]
+                })?;
+                let [wx, wy, _] = map.view.project(w);
+                let [ox, oy, _] = map.view.project([0.0; 3]);
+                let step = [wx - ox, wy - oy, dot(w, w)];
+                Some((map, weight, wd, parallax.then_some(step), hits))
+            })
+            .collect();
+        for (x, y, i) in pixels.pixels(view.size) {
+            let (mut alpha, mut colour, mut normal, mut height) = (0.0, [0.0; 3], [0.0; 3], 0.0);
+            for (map, weight, wd, parallax, hits) in &lookups {
+                let [tx, ty, along_d, along_w] = hits.at(x, y);
+                let Some(t0) = texel_at(map, tx, ty) else {
                     continue;
                 };
-                let Some(t0) = texel_at(map, p0) else {
-                    continue;
-                };
-                let (p, t) = if wd > MIN_PARALLAX_COS {
-                    let s = (dot(p0, d) - surface_height(map, t0)) / wd;
-                    let p: [f64; 3] = std::array::from_fn(|c| p0[c] - s * w[c]);
-                    match texel_at(map, p) {
-                        Some(t) => (p, t),
-                        None => continue,
+                // Moved once along the ray to the depth the frame stores there.
+                let (t, h) = match parallax {
+                    Some([sx, sy, sw]) => {
+                        let s = (along_d - surface_height(map, t0)) / wd;
+                        match texel_at(map, tx - s * sx, ty - s * sy) {
+                            Some(t) => (t, along_w - s * sw),
+                            None => continue,
+                        }
                     }
-                } else {
-                    (p0, t0)
+                    None => (t0, along_w),
                 };
                 alpha += weight;
                 let nm = world_normal(map, t);
@@ -257,7 +268,7 @@ impl Rival for Octahedral {
                     colour[c] += weight * f64::from(map.albedo[t][c]);
                     normal[c] += weight * f64::from(nm[c]);
                 }
-                height += weight * dot(p, w);
+                height += weight * h;
             }
             if alpha < 0.5 {
                 continue;
