@@ -388,7 +388,19 @@ impl<'a> Evaluator<'a> {
 
     /// The ORI drawn with the impostors of `subset`, in that order.
     pub fn render_ori(&self, view: &OrthoView, subset: &[usize]) -> Render {
-        let layers: Vec<Layer> = subset.iter().map(|&i| self.layer(view, i, None)).collect();
+        let mut layers: Vec<Layer> = Vec::with_capacity(subset.len());
+        // Where the closest direction wins, an impostor is seen only where those before it
+        // draw nothing, so it is traced there alone.
+        let mut open: Option<Mask> = None;
+        for &i in subset {
+            let layer = self.layer(view, i, open.as_ref());
+            if self.params.priority == Priority::ClosestDirection {
+                let mut rest = open.unwrap_or_else(|| Mask::full(view.size));
+                rest.remove(layer.mask());
+                open = Some(rest);
+            }
+            layers.push(layer);
+        }
         let refs: Vec<&Layer> = layers.iter().collect();
         self.compose(view, &refs)
     }

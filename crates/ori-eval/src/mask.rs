@@ -17,6 +17,18 @@ impl Mask {
         }
     }
 
+    /// Every pixel.
+    pub fn full(size: u32) -> Mask {
+        let bits = size as usize * size as usize;
+        let mut words = vec![u64::MAX; bits.div_ceil(64)];
+        if let Some(last) = words.last_mut()
+            && !bits.is_multiple_of(64)
+        {
+            *last = (1 << (bits % 64)) - 1;
+        }
+        Mask { size, words }
+    }
+
     /// Image edge in pixels.
     pub fn size(&self) -> u32 {
         self.size

@@ -196,3 +196,57 @@ fn culling_leaves_out_the_inside_seen_through_a_cut() {
     let (all, front) = count([-1.0, 0.0, 0.0]);
     assert!(front > all * 99 / 100, "from outside: {front} of {all}");
 }
+
+#[test]
+fn an_ori_traces_each_impostor_only_where_those_before_it_draw_nothing() {
+    // The closest direction wins, so the image is that of every layer traced in full.
+    let (mesh, set) = common::bunny();
+    let ev = Evaluator::new(mesh, set, &EvalParams::default()).unwrap();
+    let mut later = 0;
+    for w in ori_views::evaluation_directions().iter().step_by(40) {
+        let view = ev.view(*w).unwrap();
+        let subset: Vec<usize> = ev.facing(*w).into_iter().take(3).collect();
+        let full: Vec<_> = subset.iter().map(|&i| ev.layer(&view, i, None)).collect();
+        let refs: Vec<_> = full.iter().collect();
+        let ori = ev.render_ori(&view, &subset);
+        let all = ev.compose(&view, &refs);
+        // Bit for bit (empty pixels' depth is NaN).
+        let bits = |r: &ori_eval::Render| r.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            (
+                &ori.coverage,
+                &ori.source,
+                &ori.albedo,
+                &ori.normal,
+                bits(&ori)
+            ),
+            (
+                &all.coverage,
+                &all.source,
+                &all.albedo,
+                &all.normal,
+                bits(&all)
+            ),
+            "direction {w:?}"
+        );
+        later += ori
+            .coverage
+            .ones()
+            .filter(|&i| usize::from(ori.source[i]) != subset[0])
+            .count();
+    }
+    assert!(later > 0, "later impostors draw somewhere");
+}
+
+#[test]
+fn a_full_mask_holds_every_pixel_and_no_more() {
+    for size in [1, 7, 8, 256] {
+        let full = Mask::full(size);
+        assert_eq!(full.count(), size * size);
+        let mut every = Mask::new(size);
+        for i in 0..(size * size) as usize {
+            every.set(i);
+        }
+        assert_eq!(full, every);
+    }
+}
