@@ -665,18 +665,22 @@ mod tests {
         );
     }
 
+    /// A seeded xorshift generator: `next(k)` is in `0..k`.
+    fn xorshift(mut state: u64) -> impl FnMut(u64) -> u64 {
+        move |k| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % k
+        }
+    }
+
     #[test]
     fn another_order_with_the_original_indices_draws_the_same_rasters() {
         // Overlapping flat triangles at two heights, so that many pixel centres are met at
         // the same height by several triangles (ties), drawn in reverse order.
         let view = unit_square_view();
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |k: u64| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state % k
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         let (mut p, mut t) = (Vec::new(), Vec::new());
         for i in 0..400u32 {
             let z = if next(2) == 0 { 0.5 } else { 1.5 };
@@ -714,13 +718,7 @@ mod tests {
         // of them single-sided: each raster must equal the exact test alone (`draw` on every
         // triangle).
         let view = unit_square_view();
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = |k: u64| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state % k
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         let (mut p, mut t) = (Vec::new(), Vec::new());
         for i in 0..3000u32 {
             let x = (next(80) as f32 - 8.0) / 64.0;
