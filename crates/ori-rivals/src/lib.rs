@@ -291,12 +291,16 @@ impl Rivals {
         // cloud's clustering is sequential), and each bake depends on nothing but the mesh.
         let bake_one = |technique: Technique| -> Result<Baked, RivalError> {
             let octahedral = |sphere| {
+                // Each layout is measured with the frames the tuning views blend; only the
+                // one chosen is baked whole.
+                let seen = tuning.directions();
                 choose(
                     technique,
                     &Octahedral::layouts(budget),
-                    |(n, r)| Octahedral::bake(mesh, sphere, n, r),
+                    |(n, r)| Octahedral::bake_for(mesh, sphere, n, r, &seen),
                     tuning,
                 )
+                .and_then(|chosen| chosen.complete(mesh))
                 .map(Baked::Octahedral)
             };
             let billboards = |projection| {

@@ -30,6 +30,11 @@ impl References {
         Ok(References { views, coverage })
     }
 
+    /// The directions of the tuning views (towards the viewer).
+    pub fn directions(&self) -> Vec<[f64; 3]> {
+        self.views.iter().map(|v| v.frame.d).collect()
+    }
+
     /// The silhouette error of `rival` (pixels of the mesh it misses plus pixels it adds),
     /// summed over the views: what layouts are chosen by, so that neither fat nor thin
     /// silhouettes are favoured.

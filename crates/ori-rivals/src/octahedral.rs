@@ -81,8 +81,10 @@ impl Sphere {
 pub struct Octahedral {
     sphere: Sphere,
     frames: usize,
-    /// Row-major: frame (i, j) at index `j * frames + i`.
-    maps: Vec<ReliefMap>,
+    resolution: u32,
+    /// Row-major: frame (i, j) at index `j * frames + i`; `None` where not baked yet
+    /// ([`Octahedral::bake_for`]).
+    maps: Vec<Option<ReliefMap>>,
     centre: [f64; 3],
 }
 
@@ -100,6 +102,19 @@ impl Octahedral {
         frames: usize,
         resolution: u32,
     ) -> Result<Octahedral, RivalError> {
+        Octahedral::bake_for(mesh, sphere, frames, resolution, &[])?.complete(mesh)
+    }
+
+    /// Only the frames that views along `directions` blend, the others left to
+    /// [`Octahedral::complete`]: enough to draw those views, for a fraction of the bake (a
+    /// layout is chosen by a hundred tuning views, which blend a third of a fine grid).
+    pub fn bake_for(
+        mesh: &Mesh,
+        sphere: Sphere,
+        frames: usize,
+        resolution: u32,
+        directions: &[[f64; 3]],
+    ) -> Result<Octahedral, RivalError> {
         let technique = technique(sphere);
         if !(2..=64).contains(&frames) {
             return Err(RivalError::Bake {
@@ -107,25 +122,59 @@ impl Octahedral {
                 reason: format!("{frames} x {frames} frames: 2 to 64 per side"),
             });
         }
-        let directions: Vec<[f64; 3]> = (0..frames * frames)
-            .map(|k| sphere.decode(grid_point(k % frames, k / frames, frames)))
+        let mut octahedral = Octahedral {
+            sphere,
+            frames,
+            resolution,
+            maps: vec![None; frames * frames],
+            centre: crate::bounding_sphere(mesh, technique)?.0,
+        };
+        let mut blended = vec![false; frames * frames];
+        for &w in directions {
+            for (k, weight) in octahedral.blend(w) {
+                blended[k] |= weight > 0.0;
+            }
+        }
+        octahedral.bake_frames(mesh, |k| blended[k])?;
+        Ok(octahedral)
+    }
+
+    /// Every frame baked.
+    pub fn complete(mut self, mesh: &Mesh) -> Result<Octahedral, RivalError> {
+        let missing: Vec<bool> = self.maps.iter().map(Option::is_none).collect();
+        self.bake_frames(mesh, |k| missing[k])?;
+        Ok(self)
+    }
+
+    /// Bake the frames `k` for which `wanted(k)`.
+    fn bake_frames(
+        &mut self,
+        mesh: &Mesh,
+        wanted: impl Fn(usize) -> bool,
+    ) -> Result<(), RivalError> {
+        let n = self.frames;
+        let which: Vec<usize> = (0..n * n).filter(|&k| wanted(k)).collect();
+        if which.is_empty() {
+            return Ok(());
+        }
+        let directions: Vec<[f64; 3]> = which
+            .iter()
+            .map(|&k| self.sphere.decode(grid_point(k % n, k / n, n)))
             .collect();
         let params = BakeParams {
-            resolution,
+            resolution: self.resolution,
             ..BakeParams::default()
         };
         let maps = ori_bake::bake_any_resolution(mesh, &directions, &params)
             .map_err(|e| RivalError::Bake {
-                technique: technique.name(),
+                technique: technique(self.sphere).name(),
                 reason: e.to_string(),
             })?
             .maps;
-        Ok(Octahedral {
-            sphere,
-            frames,
-            maps,
-            centre: crate::bounding_sphere(mesh, technique)?.0,
-        })
+        for (k, map) in which.into_iter().zip(maps) {
+            self.maps[k] = Some(map);
+        }
+        Ok(())
     }
 
     /// The layouts that fit `budget` within 5 %: (frames per side, frame edge) for grids of
@@ -186,11 +235,11 @@ impl Rival for Octahedral {
     }
 
     fn bytes(&self) -> u64 {
-        relief_bytes(self.maps.iter().map(|m| u64::from(m.size()).pow(2)).sum())
+        relief_bytes((self.frames * self.frames) as u64 * u64::from(self.resolution).pow(2))
     }
 
     fn layout(&self) -> String {
-        let r = self.maps[0].size();
+        let r = self.resolution;
         format!("{0} x {0} frames of {r} x {r}", self.frames)
     }
 
@@ -210,11 +259,20 @@ impl Rival for Octahedral {
             y0: 0,
             y1: view.size as usize,
         };
-        let pixels = frames
+        let blended = frames
             .iter()
             .filter(|&&(_, weight)| weight > 0.0)
-            .map(|&(k, _)| {
-                let map = &self.maps[k];
+            .map(|&(k, weight)| match &self.maps[k] {
+                Some(map) => Ok((map, weight)),
+                None => Err(RivalError::Bake {
+                    technique: self.technique().name(),
+                    reason: format!("frame {k} is drawn but was not baked"),
+                }),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let pixels = blended
+            .iter()
+            .map(|&(map, _)| {
                 if dot(w, map.view.frame.d) > MIN_PARALLAX_COS {
                     window_pixels(view, map, self.centre, PixelBox::whole(map.size() as usize))
                 } else {
@@ -225,11 +283,9 @@ impl Rival for Octahedral {
         // Per frame: where each pixel's ray meets the plane the lookup starts from, in texel
         // coordinates, with its heights along the frame's and the view's directions; and
         // how far the texel coordinates move per unit of the parallax step along the ray.
-        let lookups: Vec<_> = frames
+        let lookups: Vec<_> = blended
             .iter()
-            .filter(|&&(_, weight)| weight > 0.0)
-            .filter_map(|&(k, weight)| {
-                let map = &self.maps[k];
+            .filter_map(|&(map, weight)| {
                 let d = map.view.frame.d;
                 let wd = dot(w, d);
                 let parallax = wd > MIN_PARALLAX_COS;

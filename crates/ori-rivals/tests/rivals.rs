@@ -92,6 +92,35 @@ fn an_octahedral_impostor_draws_a_sphere_from_every_direction() {
 }
 
 #[test]
+fn an_octahedral_impostor_baked_for_some_views_draws_them_as_the_whole_one() {
+    let ball = sphere(24);
+    let whole = Octahedral::bake(&ball, Sphere::Full, 24, 32).unwrap();
+    let seen = directions(8);
+    let part = Octahedral::bake_for(&ball, Sphere::Full, 24, 32, &seen).unwrap();
+    let depth_bits = |r: &ori_eval::Render| r.depth.iter().map(|d| d.to_bits()).collect::<Vec<_>>();
+    for &w in &seen {
+        let view = ori_eval::eval_view(&ball, w, 64).unwrap();
+        let (a, b) = (
+            whole.draw(&view).unwrap().render,
+            part.draw(&view).unwrap().render,
+        );
+        assert_eq!(
+            (&a.coverage, &a.albedo, &a.normal, depth_bits(&a)),
+            (&b.coverage, &b.albedo, &b.normal, depth_bits(&b)),
+            "{w:?}"
+        );
+    }
+    // Most frames are left out: a view from elsewhere finds them missing, until completed.
+    let elsewhere = ori_eval::eval_view(&ball, [0.0, -1.0, 0.0], 64).unwrap();
+    assert!(part.draw(&elsewhere).is_err());
+    let completed = part.complete(&ball).unwrap();
+    assert_eq!(
+        completed.draw(&elsewhere).unwrap().render.coverage,
+        whole.draw(&elsewhere).unwrap().render.coverage
+    );
+}
+
+#[test]
 fn octahedral_maps_invert() {
     for w in directions(500) {
         let back = Sphere::Full.decode(Sphere::Full.encode(w));
