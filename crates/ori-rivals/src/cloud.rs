@@ -362,7 +362,21 @@ fn cluster(mesh: &Mesh, centre: [f64; 3], radius: f64, targets: &[usize]) -> Vec
             .collect()
     };
     let mut last = usize::MAX;
+    // Merges leave stale pairs behind, skipped when popped; once they are most of the heap
+    // they are dropped, so that it stays small enough to pop from quickly. The least pair
+    // still valid is the same either way.
+    let mut compacted = heap.len();
     while let Some(&target) = targets.peek() {
+        if heap.len() > 2 * compacted.max(1024) {
+            heap.retain(|Reverse((_, a, b, va, vb))| {
+                let (a, b) = (*a as usize, *b as usize);
+                version[a] == *va
+                    && version[b] == *vb
+                    && moments[a].is_some()
+                    && moments[b].is_some()
+            });
+            compacted = heap.len();
+        }
         if live <= target {
             if live != last {
                 out.push(snapshot(&members, &moments));
