@@ -279,7 +279,7 @@ fn bake_one(baker: &Baker, view: OrthoView, supersample: u32) -> (ReliefMap, Ras
         scales,
     );
     let fine = rasters.pop().expect("at least one raster");
-    let centre = rasters.pop().unwrap_or_else(|| fine.clone());
+    let mut centre = rasters.pop().unwrap_or_else(|| fine.clone());
     // Texture level per triangle: texels of level 0 per sample.
     let sample_area = {
         let w = 2.0 * view.half_size / fine_view.size as f64;
@@ -388,7 +388,6 @@ fn bake_one(baker: &Baker, view: OrthoView, supersample: u32) -> (ReliefMap, Ras
         albedo,
     };
     // The raster names the original mesh's triangles.
-    let mut centre = centre;
     for t in centre.tri.iter_mut().filter(|t| **t != EMPTY) {
         *t = baker.original[*t as usize];
     }

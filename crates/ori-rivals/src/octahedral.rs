@@ -135,25 +135,21 @@ impl Octahedral {
                 blended[k] |= weight > 0.0;
             }
         }
-        octahedral.bake_frames(mesh, |k| blended[k])?;
+        octahedral.bake_frames(mesh, &blended)?;
         Ok(octahedral)
     }
 
     /// Every frame baked.
     pub fn complete(mut self, mesh: &Mesh) -> Result<Octahedral, RivalError> {
         let missing: Vec<bool> = self.maps.iter().map(Option::is_none).collect();
-        self.bake_frames(mesh, |k| missing[k])?;
+        self.bake_frames(mesh, &missing)?;
         Ok(self)
     }
 
-    /// Bake the frames `k` for which `wanted(k)`.
-    fn bake_frames(
-        &mut self,
-        mesh: &Mesh,
-        wanted: impl Fn(usize) -> bool,
-    ) -> Result<(), RivalError> {
+    /// Bake the frames marked in `wanted` (one flag per frame).
+    fn bake_frames(&mut self, mesh: &Mesh, wanted: &[bool]) -> Result<(), RivalError> {
         let n = self.frames;
-        let which: Vec<usize> = (0..n * n).filter(|&k| wanted(k)).collect();
+        let which: Vec<usize> = (0..n * n).filter(|&k| wanted[k]).collect();
         if which.is_empty() {
             return Ok(());
         }
@@ -251,55 +247,44 @@ impl Rival for Octahedral {
         let w = view.frame.d;
         let frames = self.blend(w);
         let mut render = Render::empty(view.size);
-        // Only where a frame's first lookup can find a texel (its window on the plane the
-        // lookup starts from); every pixel when a frame is read without parallax.
-        let all = PixelBox {
-            x0: 0,
-            x1: view.size as usize,
-            y0: 0,
-            y1: view.size as usize,
-        };
-        let blended = frames
-            .iter()
-            .filter(|&&(_, weight)| weight > 0.0)
-            .map(|&(k, weight)| match &self.maps[k] {
-                Some(map) => Ok((map, weight)),
-                None => Err(RivalError::Bake {
+        // Per frame blended: where each pixel's ray meets the plane the lookup starts from
+        // (the frame's through the centre, or the quad's where the ray runs along the frame),
+        // in texel coordinates, with its heights along the frame's and the view's directions;
+        // and how far the texel coordinates move per unit of the parallax step along the ray.
+        let mut lookups = Vec::with_capacity(frames.len());
+        for &(k, weight) in frames.iter().filter(|&&(_, weight)| weight > 0.0) {
+            let Some(map) = &self.maps[k] else {
+                return Err(RivalError::Bake {
                     technique: self.technique().name(),
                     reason: format!("frame {k} is drawn but was not baked"),
-                }),
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let pixels = blended
+                });
+            };
+            let d = map.view.frame.d;
+            let wd = dot(w, d);
+            let parallax = wd > MIN_PARALLAX_COS;
+            let start = if parallax { d } else { w };
+            let Some(hits) = PlaneHits::new(view, self.centre, start, |p| {
+                let [x, y, _] = map.view.project(p);
+                [x, y, dot(p, d), dot(p, w)]
+            }) else {
+                continue;
+            };
+            let [wx, wy, _] = map.view.project(w);
+            let [ox, oy, _] = map.view.project([0.0; 3]);
+            let step = [wx - ox, wy - oy, dot(w, w)];
+            lookups.push((map, weight, wd, parallax.then_some(step), hits));
+        }
+        // Only where a frame's first lookup can find a texel (its window on the plane the
+        // lookup starts from); every pixel when a frame is read without parallax.
+        let pixels = lookups
             .iter()
-            .map(|&(map, _)| {
-                if dot(w, map.view.frame.d) > MIN_PARALLAX_COS {
+            .map(|(map, _, _, parallax, _)| match parallax {
+                Some(_) => {
                     window_pixels(view, map, self.centre, PixelBox::whole(map.size() as usize))
-                } else {
-                    all
                 }
+                None => PixelBox::whole(view.size as usize),
             })
             .fold(PixelBox::empty(), PixelBox::union);
-        // Per frame: where each pixel's ray meets the plane the lookup starts from, in texel
-        // coordinates, with its heights along the frame's and the view's directions; and
-        // how far the texel coordinates move per unit of the parallax step along the ray.
-        let lookups: Vec<_> = blended
-            .iter()
-            .filter_map(|&(map, weight)| {
-                let d = map.view.frame.d;
-                let wd = dot(w, d);
-                let parallax = wd > MIN_PARALLAX_COS;
-                let start = if parallax { d } else { w };
-                let hits = PlaneHits::new(view, self.centre, start, |p| {
-                    let [x, y, _] = map.view.project(p);
-                    [x, y, dot(p, d), dot(p, w)]
-                })?;
-                let [wx, wy, _] = map.view.project(w);
-                let [ox, oy, _] = map.view.project([0.0; 3]);
-                let step = [wx - ox, wy - oy, dot(w, w)];
-                Some((map, weight, wd, parallax.then_some(step), hits))
-            })
-            .collect();
         for (x, y, i) in pixels.pixels(view.size) {
             let (mut alpha, mut colour, mut normal, mut height) = (0.0, [0.0; 3], [0.0; 3], 0.0);
             for (map, weight, wd, parallax, hits) in &lookups {
