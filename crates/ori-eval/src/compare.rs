@@ -64,13 +64,51 @@ struct Tables {
     decode: [f64; 256],
     /// Linear values where the sRGB code steps up (rounding in sRGB space).
     thresholds: [f64; 255],
+    /// `STARTS[j]`: how many thresholds are at most `j / STEPS`, where a search for a value
+    /// in `[j / STEPS, (j + 1) / STEPS)` can start.
+    starts: [u8; STEPS],
+}
+
+/// Cells of [`Tables::starts`] over `[0, 1)`, each narrower than the gap between two
+/// thresholds, so that a search takes one step at most.
+const STEPS: usize = 4096;
+
+impl Tables {
+    /// The 8-bit sRGB code of linear `lin`: the number of thresholds at most `lin`, as a
+    /// binary search over them counts it, from the cell's start and a step or two.
+    #[inline]
+    fn encode(&self, lin: f64) -> u8 {
+        // Scaling by a power of two is exact, so the cell's lower end is at most `lin`.
+        let cell = lin * STEPS as f64;
+        let mut k = if cell >= STEPS as f64 {
+            self.starts[STEPS - 1]
+        } else if cell >= 0.0 {
+            self.starts[cell as usize]
+        } else {
+            0 // negative or NaN: no threshold is below it
+        };
+        while let Some(&th) = self.thresholds.get(usize::from(k))
+            && th <= lin
+        {
+            k += 1;
+        }
+        k
+    }
 }
 
 fn tables() -> &'static Tables {
     static TABLES: OnceLock<Tables> = OnceLock::new();
-    TABLES.get_or_init(|| Tables {
-        decode: std::array::from_fn(|c| ori_math::srgb_to_linear(c as f64 / 255.0)),
-        thresholds: std::array::from_fn(|c| ori_math::srgb_to_linear((c as f64 + 0.5) / 255.0)),
+    TABLES.get_or_init(|| {
+        let thresholds: [f64; 255] =
+            std::array::from_fn(|c| ori_math::srgb_to_linear((c as f64 + 0.5) / 255.0));
+        Tables {
+            decode: std::array::from_fn(|c| ori_math::srgb_to_linear(c as f64 / 255.0)),
+            starts: std::array::from_fn(|j| {
+                let low = j as f64 / STEPS as f64;
+                thresholds.partition_point(|&th| th <= low) as u8
+            }),
+            thresholds,
+        }
     })
 }
 
@@ -91,10 +129,7 @@ impl Shading {
             .map(|k| f64::from(normal[k]) * self.light[k])
             .sum::<f64>();
         let light = AMBIENT + DIFFUSE * ndl.max(0.0);
-        albedo.map(|c| {
-            let lin = t.decode[c as usize] * light;
-            t.thresholds.partition_point(|&th| th <= lin) as u8
-        })
+        albedo.map(|c| t.encode(t.decode[c as usize] * light))
     }
 }
 
@@ -103,52 +138,86 @@ impl Shading {
 /// # Panics
 /// If the renders differ in size.
 pub fn compare(view: &OrthoView, mesh: &Render, ori: &Render) -> ViewErrors {
-    assert_eq!(mesh.size, ori.size, "renders of different sizes");
-    let shading = Shading::new(view);
-    let n = mesh.size as usize * mesh.size as usize;
-    let (mut union, mut both) = (0u32, 0u32);
-    let (mut dif, mut depth) = (0u64, 0.0f64);
-    for i in 0..n {
-        let (m, o) = (mesh.coverage.get(i), ori.coverage.get(i));
-        if !(m || o) {
-            continue;
-        }
-        union += 1;
-        let cm = if m {
-            shading.shade(mesh.albedo[i], mesh.normal[i])
-        } else {
-            [0; 3]
-        };
-        let co = if o {
-            shading.shade(ori.albedo[i], ori.normal[i])
-        } else {
-            [0; 3]
-        };
-        dif += (0..3)
-            .map(|k| u64::from(cm[k].abs_diff(co[k])))
-            .sum::<u64>();
-        if m && o {
-            both += 1;
-            depth += f64::from((mesh.depth[i] - ori.depth[i]).abs());
+    ShadedMesh::new(view, mesh).compare(ori)
+}
+
+/// A mesh render with its pixels shaded once, to [`compare`] many renders of its view with.
+pub struct ShadedMesh<'a> {
+    mesh: &'a Render,
+    shading: Shading,
+    /// The shaded colour of each covered pixel, in pixel order.
+    colours: Vec<[u8; 3]>,
+}
+
+impl<'a> ShadedMesh<'a> {
+    pub fn new(view: &OrthoView, mesh: &'a Render) -> ShadedMesh<'a> {
+        let shading = Shading::new(view);
+        let colours = mesh
+            .coverage
+            .ones()
+            .map(|i| shading.shade(mesh.albedo[i], mesh.normal[i]))
+            .collect();
+        ShadedMesh {
+            mesh,
+            shading,
+            colours,
         }
     }
-    ViewErrors {
-        size: mesh.size,
-        mesh_pixels: mesh.coverage.count(),
-        ori_pixels: ori.coverage.count(),
-        missed: mesh.coverage.count_minus(&ori.coverage),
-        extra: ori.coverage.count_minus(&mesh.coverage),
-        union_pixels: union,
-        p_dif: if union > 0 {
-            dif as f64 / f64::from(union)
-        } else {
-            0.0
-        },
-        depth_error: if both > 0 {
-            depth / f64::from(both)
-        } else {
-            0.0
-        },
+
+    /// [`compare`] `ori` with the mesh.
+    ///
+    /// # Panics
+    /// If the renders differ in size.
+    pub fn compare(&self, ori: &Render) -> ViewErrors {
+        let mesh = self.mesh;
+        assert_eq!(mesh.size, ori.size, "renders of different sizes");
+        let (mut union, mut both) = (0u32, 0u32);
+        let (mut dif, mut depth) = (0u64, 0.0f64);
+        let mut colours = self.colours.iter();
+        let words = mesh.coverage.words().iter().zip(ori.coverage.words());
+        for (w, (&m_word, &o_word)) in words.enumerate() {
+            let mut either = m_word | o_word;
+            while either != 0 {
+                let bit = either.trailing_zeros() as usize;
+                either &= either - 1;
+                let i = w * 64 + bit;
+                let (m, o) = (m_word >> bit & 1 != 0, o_word >> bit & 1 != 0);
+                union += 1;
+                let cm = match m {
+                    true => *colours.next().expect("a colour per covered pixel"),
+                    false => [0; 3],
+                };
+                let co = match o {
+                    true => self.shading.shade(ori.albedo[i], ori.normal[i]),
+                    false => [0; 3],
+                };
+                dif += (0..3)
+                    .map(|k| u64::from(cm[k].abs_diff(co[k])))
+                    .sum::<u64>();
+                if m && o {
+                    both += 1;
+                    depth += f64::from((mesh.depth[i] - ori.depth[i]).abs());
+                }
+            }
+        }
+        ViewErrors {
+            size: mesh.size,
+            mesh_pixels: mesh.coverage.count(),
+            ori_pixels: ori.coverage.count(),
+            missed: mesh.coverage.count_minus(&ori.coverage),
+            extra: ori.coverage.count_minus(&mesh.coverage),
+            union_pixels: union,
+            p_dif: if union > 0 {
+                dif as f64 / f64::from(union)
+            } else {
+                0.0
+            },
+            depth_error: if both > 0 {
+                depth / f64::from(both)
+            } else {
+                0.0
+            },
+        }
     }
 }
 
@@ -192,4 +261,97 @@ pub fn write_error_png(
         image::ImageFormat::Png,
     )
     .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encoding_counts_the_thresholds_as_a_binary_search() {
+        let t = tables();
+        let search = |lin: f64| t.thresholds.partition_point(|&th| th <= lin) as u8;
+        let mut values = vec![0.0, -0.0, -1.0, 1.0, 2.0, f64::NAN, f64::INFINITY];
+        values.push(f64::NEG_INFINITY);
+        for &th in &t.thresholds {
+            values.extend([th, th.next_down(), th.next_up()]);
+        }
+        for j in 0..=STEPS {
+            let low = j as f64 / STEPS as f64;
+            values.extend([low, low.next_down(), low.next_up()]);
+        }
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        for _ in 0..100_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            values.push((state >> 11) as f64 / (1u64 << 53) as f64 * 1.2);
+        }
+        for lin in values {
+            assert_eq!(t.encode(lin), search(lin), "at {lin}");
+        }
+    }
+
+    #[test]
+    fn a_shaded_mesh_compares_as_a_single_comparison() {
+        let view = OrthoView::fit(
+            ori_raster::Frame::from_direction([0.3, -0.5, 0.8]),
+            &[[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]],
+            32,
+            0,
+        )
+        .unwrap();
+        let render = |seed: u64| {
+            let mut r = Render::empty(32);
+            let mut state = seed;
+            for i in 0..32 * 32 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                if !state.is_multiple_of(3) {
+                    r.coverage.set(i);
+                    r.depth[i] = (state % 1000) as f32 / 1000.0;
+                    r.albedo[i] = [(state >> 8) as u8, (state >> 16) as u8, (state >> 24) as u8];
+                    let n = [(state >> 32) as u8, (state >> 40) as u8, 128]
+                        .map(|c| f32::from(c) / 128.0 - 1.0);
+                    r.normal[i] = n;
+                }
+            }
+            r
+        };
+        let mesh = render(7);
+        let shaded = ShadedMesh::new(&view, &mesh);
+        for seed in [1, 2, 3] {
+            let ori = render(seed);
+            let direct = {
+                // The definition, pixel by pixel.
+                let shading = Shading::new(&view);
+                let (mut union, mut dif) = (0u32, 0u64);
+                for i in 0..32 * 32 {
+                    let (m, o) = (mesh.coverage.get(i), ori.coverage.get(i));
+                    if m || o {
+                        union += 1;
+                        let cm = if m {
+                            shading.shade(mesh.albedo[i], mesh.normal[i])
+                        } else {
+                            [0; 3]
+                        };
+                        let co = if o {
+                            shading.shade(ori.albedo[i], ori.normal[i])
+                        } else {
+                            [0; 3]
+                        };
+                        dif += (0..3)
+                            .map(|k| u64::from(cm[k].abs_diff(co[k])))
+                            .sum::<u64>();
+                    }
+                }
+                dif as f64 / f64::from(union)
+            };
+            let errors = shaded.compare(&ori);
+            assert_eq!(errors, compare(&view, &mesh, &ori));
+            assert_eq!(errors.p_dif, direct);
+            assert!(errors.p_dif > 0.0 && errors.depth_error > 0.0);
+        }
+    }
 }

@@ -105,7 +105,9 @@ use ori_raster::OrthoView;
 use ori_relief::ReliefSet;
 use serde::{Deserialize, Serialize};
 
-pub use compare::{Shading, ViewErrors, compare, error_image, percent, write_error_png};
+pub use compare::{
+    ShadedMesh, Shading, ViewErrors, compare, error_image, percent, write_error_png,
+};
 pub use march::{ImpostorRays, MarchParams, Simd, Trace, WallMap};
 pub use mask::Mask;
 pub use part::Whole;

@@ -2,7 +2,7 @@
 //! every technique in each view (the mesh is rendered once per view).
 
 use ori_bake::Baker;
-use ori_eval::{Mask, Render, Shading, ViewErrors, eval_view};
+use ori_eval::{Mask, Render, ShadedMesh, Shading, ViewErrors, eval_view};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
 use rayon::prelude::*;
@@ -107,6 +107,7 @@ pub fn measure(
         .map(|&w| {
             let view = eval_view(mesh, w, s0)?;
             let reference = ori_eval::render_mesh(&baker, &view)?;
+            let shaded = ShadedMesh::new(&view, &reference);
             rivals
                 .iter()
                 .map(|r| {
@@ -120,7 +121,7 @@ pub fn measure(
                     };
                     let time = started.elapsed();
                     Ok(Measured {
-                        errors: ori_eval::compare(&view, &reference, &drawn.render),
+                        errors: shaded.compare(&drawn.render),
                         drawn: drawn.count,
                         time,
                     })
