@@ -146,6 +146,8 @@ pub struct Baker {
     /// drawn).
     masked: Vec<bool>,
     single_sided: Vec<bool>,
+    /// Per triangle of `mesh`, [`sample::face_normals`].
+    face_normals: Vec<[f64; 3]>,
 }
 
 impl Baker {
@@ -173,6 +175,7 @@ impl Baker {
                 .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
                 .collect(),
             single_sided: mesh.single_sided(),
+            face_normals: sample::face_normals(&mesh),
             mesh,
             original,
         }
@@ -206,12 +209,31 @@ impl Baker {
         view: &OrthoView,
         supersample: u32,
     ) -> Result<(ReliefMap, Raster), BakeError> {
+        self.view_map(view, supersample, EmptyTexels::Filled)
+    }
+
+    /// [`Baker::bake_view`] with the texels no sample hits left zero rather than filled: what
+    /// a render of the mesh reads (its covered texels) for less work.
+    pub fn render_view(
+        &self,
+        view: &OrthoView,
+        supersample: u32,
+    ) -> Result<(ReliefMap, Raster), BakeError> {
+        self.view_map(view, supersample, EmptyTexels::Zero)
+    }
+
+    fn view_map(
+        &self,
+        view: &OrthoView,
+        supersample: u32,
+        empty: EmptyTexels,
+    ) -> Result<(ReliefMap, Raster), BakeError> {
         validate_any_resolution(&BakeParams {
             resolution: view.size,
             supersample,
             margin: 0,
         })?;
-        Ok(bake_one(self, *view, supersample))
+        Ok(bake_one(self, *view, supersample, empty))
     }
 
     fn bake_valid(
@@ -238,7 +260,7 @@ impl Baker {
                     params.resolution,
                     params.margin,
                 )
-                .map(|view| bake_one(self, view, params.supersample).0)
+                .map(|view| bake_one(self, view, params.supersample, EmptyTexels::Filled).0)
                 .map_err(|e| BakeError::Frame {
                     index,
                     direction,
@@ -250,11 +272,26 @@ impl Baker {
     }
 }
 
-fn bake_one(baker: &Baker, view: OrthoView, supersample: u32) -> (ReliefMap, Raster) {
+/// What a map holds where no sample hits the mesh.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum EmptyTexels {
+    /// The nearest covered texels' values ([`fill::pull_push`]), as every baked map.
+    Filled,
+    /// Zero.
+    Zero,
+}
+
+fn bake_one(
+    baker: &Baker,
+    view: OrthoView,
+    supersample: u32,
+    empty: EmptyTexels,
+) -> (ReliefMap, Raster) {
     let (mesh, frame) = (&baker.mesh, view.frame);
     let shader = &sample::Shader {
         mesh,
         textures: &baker.textures,
+        face_normals: &baker.face_normals,
     };
     let keep = |tri: u32, bary: [f32; 3]| shader.alpha_keeps(tri, bary);
     let alpha = AlphaTest {
@@ -364,13 +401,26 @@ fn bake_one(baker: &Baker, view: OrthoView, supersample: u32) -> (ReliefMap, Ras
             }
         }
     }
-    fill::pull_push(n, &mut color, &weight, [0.5, 0.5, 0.5]);
-    fill::pull_push(n, &mut normal, &weight, [0.0, 0.0, 1.0]);
-
-    let albedo = color.iter().map(|c| c.map(|v| encoder.encode(v))).collect();
+    if empty == EmptyTexels::Filled {
+        fill::pull_push(n, &mut color, &weight, [0.5, 0.5, 0.5]);
+        fill::pull_push(n, &mut normal, &weight, [0.0, 0.0, 1.0]);
+    }
+    let hit = |i: usize| empty == EmptyTexels::Filled || weight[i] > 0.0;
+    let albedo = color
+        .iter()
+        .enumerate()
+        .map(|(i, c)| match hit(i) {
+            true => c.map(|v| encoder.encode(v)),
+            false => [0; 3],
+        })
+        .collect();
     let normal = normal
         .iter()
-        .map(|v| {
+        .enumerate()
+        .map(|(i, v)| {
+            if !hit(i) {
+                return [0; 2];
+            }
             let (x, y, z) = (f64::from(v[0]), f64::from(v[1]), f64::from(v[2]).max(0.0));
             let len = (x * x + y * y + z * z).sqrt();
             let (x, y) = if len > 1e-12 && len.is_finite() {

@@ -119,7 +119,7 @@ fn wrap(i: i64, n: usize, mode: Wrap) -> usize {
 /// of texel centres is the reference's raster.
 pub(crate) fn render(baker: &Baker, view: &OrthoView) -> Result<Render, EvalError> {
     let (map, r) = baker
-        .bake_view(view, 2)
+        .render_view(view, 2)
         .map_err(|e| EvalError::View(e.to_string()))?;
     let n = view.size as usize;
     let mut out = Render::empty(view.size);
