@@ -217,19 +217,40 @@ pub enum EvalError {
     View(String),
 }
 
+/// The pixels a whole mesh covers ([`Evaluator::mesh_coverage`] without a relief set, for
+/// what is measured by its silhouette alone): the coverage of its full render
+/// ([`render_mesh`]) for a fraction of the work.
+pub struct MeshCoverage<'a> {
+    mesh: coverage::CoverageMesh,
+    alpha: Option<reference::AlphaCut<'a>>,
+}
+
+impl<'a> MeshCoverage<'a> {
+    pub fn new(mesh: &'a Mesh) -> MeshCoverage<'a> {
+        MeshCoverage {
+            mesh: coverage::CoverageMesh::new(mesh, &mesh.single_sided()),
+            alpha: reference::AlphaCut::new(mesh),
+        }
+    }
+
+    /// The pixels the mesh covers in `view`.
+    pub fn of(&self, view: &OrthoView) -> Mask {
+        coverage::coverage(view, &self.mesh, self.alpha.as_ref())
+    }
+}
+
 /// The evaluator of one mesh and its relief set.
 pub struct Evaluator<'a> {
     mesh: &'a Mesh,
     set: &'a ReliefSet,
     params: EvalParams,
-    alpha: Option<reference::AlphaCut<'a>>,
     /// The mesh's textures, read by every reference render (made by the first).
     baker: std::sync::OnceLock<ori_bake::Baker>,
     /// Per map, where its walls are (for the fast coverage test).
     walls: Vec<WallMap>,
     /// Per map, its occupied volume and column grid (rule 2).
     occupancy: Vec<march::Occupancy>,
-    coverage_mesh: coverage::CoverageMesh,
+    coverage: MeshCoverage<'a>,
     /// When the mesh is a part of a larger model: the model (see [`Evaluator::part_of`]).
     whole: Option<part::WholeModel<'a>>,
 }
@@ -261,7 +282,6 @@ impl<'a> Evaluator<'a> {
             mesh,
             set,
             params: params.clone(),
-            alpha: reference::AlphaCut::new(mesh),
             baker: std::sync::OnceLock::new(),
             walls: set
                 .maps
@@ -269,7 +289,7 @@ impl<'a> Evaluator<'a> {
                 .map(|m| WallMap::new(&m.depth, m.size(), params.march().threshold_codes()))
                 .collect(),
             occupancy: set.maps.iter().map(march::Occupancy::new).collect(),
-            coverage_mesh: coverage::CoverageMesh::new(mesh, &mesh.single_sided()),
+            coverage: MeshCoverage::new(mesh),
             whole: None,
         })
     }
@@ -321,7 +341,7 @@ impl<'a> Evaluator<'a> {
     /// Pixels the mesh covers (single-sided triangles only from the front; for a part, only
     /// its own: [`Evaluator::part_of`]).
     pub fn mesh_coverage(&self, view: &OrthoView) -> Mask {
-        let mut coverage = coverage::coverage(view, &self.coverage_mesh, self.alpha.as_ref());
+        let mut coverage = self.coverage.of(view);
         if let Some(whole) = &self.whole {
             coverage.remove(&whole.in_front(view, &coverage));
         }

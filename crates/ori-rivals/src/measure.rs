@@ -2,7 +2,7 @@
 //! every technique in each view (the mesh is rendered once per view).
 
 use ori_bake::Baker;
-use ori_eval::{Mask, Render, ShadedMesh, Shading, ViewErrors, eval_view};
+use ori_eval::{Mask, MeshCoverage, Render, ShadedMesh, Shading, ViewErrors, eval_view};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
 use rayon::prelude::*;
@@ -22,11 +22,8 @@ impl References {
             .iter()
             .map(|&w| eval_view(mesh, w, s0))
             .collect::<Result<Vec<_>, _>>()?;
-        let baker = Baker::new(mesh);
-        let coverage = views
-            .par_iter()
-            .map(|v| ori_eval::render_mesh(&baker, v).map(|r| r.coverage))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mesh = MeshCoverage::new(mesh);
+        let coverage = views.par_iter().map(|v| mesh.of(v)).collect();
         Ok(References { views, coverage })
     }
 

@@ -1,7 +1,7 @@
 //! Full evaluation of selection rules (the paper's Table 1 and our extra rows): every view
 //! rendered from the mesh and from the ORI with the subset each rule picks.
 
-use ori_eval::{Evaluator, Layer, ViewErrors, compare};
+use ori_eval::{Evaluator, Layer, ShadedMesh, ViewErrors};
 use rayon::prelude::*;
 
 use crate::{Rule, SelectError, ViewMasks, choose};
@@ -28,6 +28,7 @@ pub fn evaluate_rules(
         .map(|&w| {
             let view = evaluator.view(w)?;
             let mesh = evaluator.render_mesh(&view)?;
+            let shaded = ShadedMesh::new(&view, &mesh);
             let layers: Vec<Layer> = evaluator
                 .facing(w)
                 .into_iter()
@@ -51,7 +52,7 @@ pub fn evaluate_rules(
                         .map(|&i| layers.iter().find(|l| l.impostor() == i).expect("a layer"))
                         .collect();
                     let ori = evaluator.compose(&view, &chosen);
-                    let errors = compare(&view, &mesh, &ori);
+                    let errors = shaded.compare(&ori);
                     debug_assert_eq!(errors.missed, c.missed);
                     RuleView {
                         impostors: c.impostors,
