@@ -267,6 +267,13 @@ pub fn write_error_png(
 mod tests {
     use super::*;
 
+    fn xorshift(state: &mut u64) -> u64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        *state
+    }
+
     #[test]
     fn encoding_counts_the_thresholds_as_a_binary_search() {
         let t = tables();
@@ -282,10 +289,7 @@ mod tests {
         }
         let mut state = 0x9e37_79b9_7f4a_7c15u64;
         for _ in 0..100_000 {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            values.push((state >> 11) as f64 / (1u64 << 53) as f64 * 1.2);
+            values.push((xorshift(&mut state) >> 11) as f64 / (1u64 << 53) as f64 * 1.2);
         }
         for lin in values {
             assert_eq!(t.encode(lin), search(lin), "at {lin}");
@@ -305,14 +309,12 @@ mod tests {
             let mut r = Render::empty(32);
             let mut state = seed;
             for i in 0..32 * 32 {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                if !state.is_multiple_of(3) {
+                let bits = xorshift(&mut state);
+                if !bits.is_multiple_of(3) {
                     r.coverage.set(i);
-                    r.depth[i] = (state % 1000) as f32 / 1000.0;
-                    r.albedo[i] = [(state >> 8) as u8, (state >> 16) as u8, (state >> 24) as u8];
-                    let n = [(state >> 32) as u8, (state >> 40) as u8, 128]
+                    r.depth[i] = (bits % 1000) as f32 / 1000.0;
+                    r.albedo[i] = [(bits >> 8) as u8, (bits >> 16) as u8, (bits >> 24) as u8];
+                    let n = [(bits >> 32) as u8, (bits >> 40) as u8, 128]
                         .map(|c| f32::from(c) / 128.0 - 1.0);
                     r.normal[i] = n;
                 }
