@@ -146,8 +146,6 @@ pub struct Baker {
     /// drawn).
     masked: Vec<bool>,
     single_sided: Vec<bool>,
-    /// Per triangle of `mesh`, [`sample::face_normals`].
-    face_normals: Vec<[f64; 3]>,
 }
 
 impl Baker {
@@ -175,7 +173,6 @@ impl Baker {
                 .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
                 .collect(),
             single_sided: mesh.single_sided(),
-            face_normals: sample::face_normals(&mesh),
             mesh,
             original,
         }
@@ -291,7 +288,6 @@ fn bake_one(
     let shader = &sample::Shader {
         mesh,
         textures: &baker.textures,
-        face_normals: &baker.face_normals,
     };
     let keep = |tri: u32, bary: [f32; 3]| shader.alpha_keeps(tri, bary);
     let alpha = AlphaTest {

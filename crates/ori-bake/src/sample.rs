@@ -210,26 +210,6 @@ impl Textures {
 pub(crate) struct Shader<'m> {
     pub mesh: &'m Mesh,
     pub textures: &'m Textures,
-    /// Per triangle, [`face_normals`].
-    pub face_normals: &'m [[f64; 3]],
-}
-
-/// Each triangle's geometric normal `(b - a) x (c - a)`, not normalized (every shaded sample
-/// of a triangle needs it, so it is computed once per bake of many views).
-pub(crate) fn face_normals(mesh: &Mesh) -> Vec<[f64; 3]> {
-    mesh.triangles
-        .iter()
-        .map(|t| {
-            let p = t.map(|i| mesh.positions[i as usize].map(f64::from));
-            let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-            let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-            [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ]
-        })
-        .collect()
 }
 
 impl<'m> Shader<'m> {
@@ -304,7 +284,14 @@ impl<'m> Shader<'m> {
     /// Unit shading normal at the sample, turned to the side of the surface the viewer sees.
     pub fn normal(&self, tri: u32, bary: [f32; 3], toward_viewer: [f64; 3]) -> [f64; 3] {
         let t = self.mesh.triangles[tri as usize];
-        let mut g = self.face_normals[tri as usize];
+        let p = t.map(|i| self.mesh.positions[i as usize].map(f64::from));
+        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+        let mut g = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
         if dot(g, toward_viewer) < 0.0 {
             g = g.map(|x| -x); // the back of the face is what is seen
         }
