@@ -405,9 +405,12 @@ fn bake_one(
     let albedo = color
         .iter()
         .enumerate()
-        .map(|(i, c)| match hit(i) {
-            true => c.map(|v| encoder.encode(v)),
-            false => [0; 3],
+        .map(|(i, c)| {
+            if hit(i) {
+                c.map(|v| encoder.encode(v))
+            } else {
+                [0; 3]
+            }
         })
         .collect();
     let normal = normal

@@ -64,7 +64,7 @@ struct Tables {
     decode: [f64; 256],
     /// Linear values where the sRGB code steps up (rounding in sRGB space).
     thresholds: [f64; 255],
-    /// `STARTS[j]`: how many thresholds are at most `j / STEPS`, where a search for a value
+    /// `starts[j]`: how many thresholds are at most `j / STEPS`, where a search for a value
     /// in `[j / STEPS, (j + 1) / STEPS)` can start.
     starts: [u8; STEPS],
 }
@@ -75,7 +75,7 @@ const STEPS: usize = 4096;
 
 impl Tables {
     /// The 8-bit sRGB code of linear `lin`: the number of thresholds at most `lin`, as a
-    /// binary search over them counts it, from the cell's start and a step or two.
+    /// binary search over them counts it, from the cell's start and at most a step.
     #[inline]
     fn encode(&self, lin: f64) -> u8 {
         // Scaling by a power of two is exact, so the cell's lower end is at most `lin`.

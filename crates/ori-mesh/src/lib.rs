@@ -373,18 +373,14 @@ impl Mesh {
             })
             .collect();
         used.extend((0..self.positions.len()).filter(|&v| remap[v] == u32::MAX));
-        let pick = |values: &[[f32; 3]]| used.iter().map(|&v| values[v]).collect();
+        fn pick<T: Copy>(used: &[usize], values: &[T]) -> Vec<T> {
+            used.iter().map(|&v| values[v]).collect()
+        }
         Mesh {
-            positions: pick(&self.positions),
-            normals: pick(&self.normals),
-            uvs: self
-                .uvs
-                .as_ref()
-                .map(|uvs| used.iter().map(|&v| uvs[v]).collect()),
-            colors: self
-                .colors
-                .as_ref()
-                .map(|colors| used.iter().map(|&v| colors[v]).collect()),
+            positions: pick(&used, &self.positions),
+            normals: pick(&used, &self.normals),
+            uvs: self.uvs.as_deref().map(|uvs| pick(&used, uvs)),
+            colors: self.colors.as_deref().map(|colors| pick(&used, colors)),
             triangles,
             triangle_materials: order
                 .iter()
