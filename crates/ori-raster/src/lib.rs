@@ -251,6 +251,67 @@ pub fn rasterize_scales(
     original: Option<&[u32]>,
     scales: &[u32],
 ) -> Vec<Raster> {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: AVX2 was detected just above.
+        return unsafe {
+            rasterize_scales_avx2(
+                view,
+                positions,
+                triangles,
+                alpha,
+                single_sided,
+                original,
+                scales,
+            )
+        };
+    }
+    rasterize_scales_portable(
+        view,
+        positions,
+        triangles,
+        alpha,
+        single_sided,
+        original,
+        scales,
+    )
+}
+
+/// [`rasterize_scales`] compiled for AVX2: the same operations (Rust never fuses a multiply
+/// and an add), scheduled with wider registers, so the same rasters, a few percent sooner.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn rasterize_scales_avx2(
+    view: &OrthoView,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    alpha: Option<&AlphaTest<'_>>,
+    single_sided: Option<&[bool]>,
+    original: Option<&[u32]>,
+    scales: &[u32],
+) -> Vec<Raster> {
+    rasterize_scales_portable(
+        view,
+        positions,
+        triangles,
+        alpha,
+        single_sided,
+        original,
+        scales,
+    )
+}
+
+/// [`rasterize_scales`] for any x86-64 (or other) processor.
+#[inline(always)]
+fn rasterize_scales_portable(
+    view: &OrthoView,
+    positions: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    alpha: Option<&AlphaTest<'_>>,
+    single_sided: Option<&[bool]>,
+    original: Option<&[u32]>,
+    scales: &[u32],
+) -> Vec<Raster> {
     assert!(
         scales.iter().all(|s| s.is_power_of_two()),
         "scales must be powers of two"
@@ -280,13 +341,14 @@ pub fn rasterize_scales(
         .collect();
     // A first test from a small array: per corner and raster, the gap between pixel-centre
     // columns (and rows) it lies in. Most triangles of a dense scan cover no pixel centre, and
-    // comparing three keys rejects them. Dividing by a power of two is exact, so the keys
+    // comparing three keys rejects them. Scaling by a power of two is exact, so the keys
     // are those of the scaled coordinates `draw` sees.
     let mut keys = vec![[0u32; 2]; positions.len() * stride];
     for (p, corner) in projected.iter().zip(keys.chunks_exact_mut(stride)) {
         for ((key, out), &scale) in corner.iter_mut().zip(&outs).zip(scales) {
-            let down = f64::from(finest / scale);
-            *key = [0, 1].map(|k| centre_gap(p[k] / down, out.size));
+            // Scaling by a power of two is exact: the same as dividing by `finest / scale`.
+            let shrink = f64::from(scale) / f64::from(finest);
+            *key = [0, 1].map(|k| centre_gap(p[k] * shrink, out.size));
         }
     }
     for (t, tri) in triangles.iter().enumerate() {
@@ -314,9 +376,9 @@ pub fn rasterize_scales(
             if candidate & (1 << k) == 0 {
                 continue;
             }
-            // Dividing by a power of two is exact.
-            let down = f64::from(finest / scale);
-            let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] / down, p[1] / down, p[2]]);
+            // Scaling by a power of two is exact: the same as dividing by `finest / scale`.
+            let shrink = f64::from(scale) / f64::from(finest);
+            let [a, b, c] = exact.map(|p: [f64; 3]| [p[0] * shrink, p[1] * shrink, p[2]]);
             let alpha = masked.then_some(alpha).flatten();
             draw(out, t, [a, b, c], alpha, culled, original);
         }
@@ -325,6 +387,8 @@ pub fn rasterize_scales(
 }
 
 /// The exact test and depth-tested write of one triangle (screen coordinates and heights).
+/// Inlined into its caller, so that the AVX2 build compiles it for AVX2 too.
+#[inline(always)]
 fn draw(
     out: &mut Raster,
     t: usize,
@@ -754,6 +818,33 @@ mod tests {
             assert!(exact.covered() > 0);
             assert_eq!(*raster, exact, "scale {scale}");
         }
+    }
+
+    #[test]
+    fn the_avx2_build_draws_what_the_portable_build_draws() {
+        // Overlapping small triangles at a few heights (ties), some single-sided, drawn in a
+        // shuffled order with their original indices, at three scales.
+        let view = unit_square_view();
+        let mut next = xorshift(0x1234_5678_9abc_def1u64);
+        let (mut p, mut t) = (Vec::new(), Vec::new());
+        for i in 0..3000u32 {
+            let (x, y) = (next(70) as f32 / 64.0, next(70) as f32 / 64.0);
+            let z = next(3) as f32 / 4.0;
+            for _ in 0..3 {
+                let dx = (next(17) as f32 - 8.0) / 256.0;
+                let dy = (next(17) as f32 - 8.0) / 256.0;
+                p.push([x + dx, y + dy, z + next(2) as f32 / 64.0]);
+            }
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        let single: Vec<bool> = (0..t.len()).map(|i| i % 3 == 0).collect();
+        let original: Vec<u32> = (0..t.len() as u32).map(|i| (i * 7919) % 3000).collect();
+        let args = (Some(single.as_slice()), Some(original.as_slice()));
+        let scales = [1, 2, 4];
+        let dispatched = rasterize_scales(&view, &p, &t, None, args.0, args.1, &scales);
+        let portable = rasterize_scales_portable(&view, &p, &t, None, args.0, args.1, &scales);
+        assert!(dispatched.iter().all(|r| r.covered() > 0));
+        assert_eq!(dispatched, portable);
     }
 
     #[test]
