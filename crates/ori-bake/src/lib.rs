@@ -30,7 +30,7 @@ mod sample;
 use ori_mesh::{AlphaMode, Mesh};
 use std::sync::Arc;
 
-use ori_raster::{AlphaTest, EMPTY, Frame, OrthoView, Raster, rasterize_scales};
+use ori_raster::{AlphaTest, Culling, EMPTY, Frame, OrthoView, Raster, rasterize_scales};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -145,7 +145,7 @@ pub struct Baker {
     /// Per triangle of `mesh`: alpha-tested, and culled from behind (as the reference mesh is
     /// drawn).
     masked: Vec<bool>,
-    single_sided: Vec<bool>,
+    culling: Culling,
 }
 
 impl Baker {
@@ -172,7 +172,7 @@ impl Baker {
                 .iter()
                 .map(|&m| mesh.materials[m as usize].alpha_mode == AlphaMode::Mask)
                 .collect(),
-            single_sided: mesh.single_sided(),
+            culling: Culling::new(&mesh.positions, &mesh.triangles, mesh.single_sided()),
             mesh,
             original,
         }
@@ -295,7 +295,7 @@ fn bake_one(
         keep: &keep,
     };
     let alpha = baker.masked.iter().any(|&m| m).then_some(&alpha);
-    let single_sided = Some(baker.single_sided.as_slice());
+    let culling = Some(&baker.culling);
 
     let n = view.size as usize;
     let s = supersample as usize;
@@ -307,7 +307,7 @@ fn bake_one(
         &mesh.positions,
         &mesh.triangles,
         alpha,
-        single_sided,
+        culling,
         Some(&baker.original),
         scales,
     );

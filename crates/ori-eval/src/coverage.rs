@@ -7,8 +7,8 @@
 
 use ori_mesh::Mesh;
 use ori_raster::{
-    BEFORE_THE_FIRST, OrthoView, centre_box, centre_gap, covers_no_centre, dot, faces_away,
-    row_span,
+    BEFORE_THE_FIRST, Culling, OrthoView, centre_box, centre_gap, covers_no_centre, dot,
+    faces_away, row_span,
 };
 
 use crate::Mask;
@@ -23,8 +23,8 @@ pub(crate) struct CoverageMesh {
     triangles: Vec<[u32; 3]>,
     /// Index of each triangle in the original mesh (for the alpha test).
     original: Vec<u32>,
-    /// Whether each triangle is culled from behind (`Mesh::single_sided`).
-    single_sided: Vec<bool>,
+    /// Which triangles are culled from behind (`Mesh::single_sided`).
+    culling: Culling,
     /// The boxes of runs of [`CHUNK`] consecutive triangles, for [`heights`] to skip the runs
     /// that project outside the pixels it is asked for.
     chunks: Vec<Chunk>,
@@ -68,9 +68,13 @@ impl CoverageMesh {
             .collect();
         CoverageMesh {
             chunks,
+            culling: Culling::new(
+                &positions,
+                &triangles,
+                order.iter().map(|&t| single_sided[t as usize]).collect(),
+            ),
             positions,
             triangles,
-            single_sided: order.iter().map(|&t| single_sided[t as usize]).collect(),
             original: order,
         }
     }
@@ -164,7 +168,13 @@ fn coverage_with(
             .map(|s| [centre_gap(s[0], view.size), centre_gap(s[1], view.size)]),
     );
     let keys = &corners.keys;
+    let away = mesh.culling.in_view(view);
     for (t, tri) in mesh.triangles.iter().enumerate() {
+        // On a closed scan about half the triangles face away: most are known to from the
+        // view direction alone, before their corners are read.
+        if away.surely_away(t) {
+            continue;
+        }
         let [ka, kb, kc] = tri.map(|i| keys[i as usize]);
         if (0..2).any(|k| covers_no_centre([ka[k], kb[k], kc[k]])) {
             continue;
@@ -173,7 +183,7 @@ fn coverage_with(
         // face away, and this is cheaper than the covered-box test below.
         let [a, b, c] = tri.map(|i| exact[i as usize]);
         let area = edge(a, b, c);
-        if area == 0.0 || !area.is_finite() || (mesh.single_sided[t] && faces_away(area)) {
+        if area == 0.0 || !area.is_finite() || (mesh.culling.single_sided(t) && faces_away(area)) {
             continue;
         }
         // With plain keys the candidate centres are columns min + 1 ..= max (likewise rows),
@@ -263,6 +273,7 @@ fn heights_with(
     let extent = |axis: [f64; 3], half: [f64; 3]| {
         axis[0].abs() * half[0] + axis[1].abs() * half[1] + axis[2].abs() * half[2]
     };
+    let away = mesh.culling.in_view(view);
     let runs = mesh.triangles.chunks(CHUNK).zip(&mesh.chunks);
     for (k, (run, chunk)) in runs.enumerate() {
         let (lu, hu) = (dot(frame.u, chunk.center), extent(frame.u, chunk.half));
@@ -275,6 +286,9 @@ fn heights_with(
             continue;
         }
         for (t, tri) in (k * CHUNK..).zip(run) {
+            if away.surely_away(t) {
+                continue;
+            }
             for &i in tri {
                 let i = i as usize;
                 if scratch.stamp[i] == generation {
@@ -293,7 +307,10 @@ fn heights_with(
             }
             let [a, b, c] = tri.map(|i| scratch.exact[i as usize]);
             let area = edge(a, b, c);
-            if area == 0.0 || !area.is_finite() || (mesh.single_sided[t] && faces_away(area)) {
+            if area == 0.0
+                || !area.is_finite()
+                || (mesh.culling.single_sided(t) && faces_away(area))
+            {
                 continue;
             }
             let h = tri.map(|i| scratch.height[i as usize]);

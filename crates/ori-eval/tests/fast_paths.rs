@@ -3,17 +3,17 @@
 mod common;
 
 use ori_eval::{EvalParams, Evaluator, Mask, Simd, Trace, WallMap};
-use ori_raster::{EMPTY, rasterize};
+use ori_raster::{Culling, EMPTY, rasterize};
 
 /// The rasterizer's coverage of `mesh` through `view`, culled (as the evaluator) or not.
 fn raster_coverage(mesh: &ori_mesh::Mesh, view: &ori_raster::OrthoView, cull: bool) -> Mask {
-    let single_sided = mesh.single_sided();
+    let culling = Culling::new(&mesh.positions, &mesh.triangles, mesh.single_sided());
     let r = rasterize(
         view,
         &mesh.positions,
         &mesh.triangles,
         None,
-        cull.then_some(&single_sided[..]),
+        cull.then_some(&culling),
     );
     let mut full = Mask::new(view.size);
     for (i, &t) in r.tri.iter().enumerate() {

@@ -19,6 +19,10 @@
 //!   its top or left side, so a shared edge is drawn once. On equal heights the triangle with
 //!   the lower index wins, so the result does not depend on anything but the input.
 
+mod culling;
+
+pub use culling::{Culling, InView};
+
 /// A right-handed orthonormal frame (u, v, d), `d` towards the viewer.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
@@ -216,16 +220,17 @@ pub struct AlphaTest<'a> {
     pub keep: &'a (dyn Fn(u32, [f32; 3]) -> bool + Sync),
 }
 
-/// Draw `triangles` seen through `view`. Triangles marked in `single_sided` are culled where
-/// they face away from the viewer ([`faces_away`]); the others are drawn from both sides.
+/// Draw `triangles` seen through `view`. Triangles `culling` marks single-sided are culled
+/// where they face away from the viewer ([`faces_away`]); the others are drawn from both
+/// sides.
 pub fn rasterize(
     view: &OrthoView,
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
-    single_sided: Option<&[bool]>,
+    culling: Option<&Culling>,
 ) -> Raster {
-    let mut out = rasterize_scales(view, positions, triangles, alpha, single_sided, None, &[1]);
+    let mut out = rasterize_scales(view, positions, triangles, alpha, culling, None, &[1]);
     out.pop().expect("one scale, one raster")
 }
 
@@ -247,7 +252,7 @@ pub fn rasterize_scales(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
-    single_sided: Option<&[bool]>,
+    culling: Option<&Culling>,
     original: Option<&[u32]>,
     scales: &[u32],
 ) -> Vec<Raster> {
@@ -255,26 +260,10 @@ pub fn rasterize_scales(
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: AVX2 was detected just above.
         return unsafe {
-            rasterize_scales_avx2(
-                view,
-                positions,
-                triangles,
-                alpha,
-                single_sided,
-                original,
-                scales,
-            )
+            rasterize_scales_avx2(view, positions, triangles, alpha, culling, original, scales)
         };
     }
-    rasterize_scales_portable(
-        view,
-        positions,
-        triangles,
-        alpha,
-        single_sided,
-        original,
-        scales,
-    )
+    rasterize_scales_portable(view, positions, triangles, alpha, culling, original, scales)
 }
 
 /// [`rasterize_scales`] compiled for AVX2: the same operations (Rust never fuses a multiply
@@ -286,19 +275,11 @@ fn rasterize_scales_avx2(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
-    single_sided: Option<&[bool]>,
+    culling: Option<&Culling>,
     original: Option<&[u32]>,
     scales: &[u32],
 ) -> Vec<Raster> {
-    rasterize_scales_portable(
-        view,
-        positions,
-        triangles,
-        alpha,
-        single_sided,
-        original,
-        scales,
-    )
+    rasterize_scales_portable(view, positions, triangles, alpha, culling, original, scales)
 }
 
 /// [`rasterize_scales`] for any x86-64 (or other) processor.
@@ -308,7 +289,7 @@ fn rasterize_scales_portable(
     positions: &[[f32; 3]],
     triangles: &[[u32; 3]],
     alpha: Option<&AlphaTest<'_>>,
-    single_sided: Option<&[bool]>,
+    culling: Option<&Culling>,
     original: Option<&[u32]>,
     scales: &[u32],
 ) -> Vec<Raster> {
@@ -351,7 +332,11 @@ fn rasterize_scales_portable(
             *key = [0, 1].map(|k| centre_gap(p[k] * shrink, out.size));
         }
     }
+    let away = culling.map(|c| c.in_view(view));
     for (t, tri) in triangles.iter().enumerate() {
+        if away.as_ref().is_some_and(|a| a.surely_away(t)) {
+            continue;
+        }
         let corners = tri.map(|i| &keys[i as usize * stride..][..stride]);
         // Bit k: the triangle may cover a pixel centre of raster k.
         let mut candidate = 0u32;
@@ -364,7 +349,7 @@ fn rasterize_scales_portable(
             continue;
         }
         let exact = tri.map(|i| projected[i as usize]);
-        let culled = single_sided.is_some_and(|s| s.get(t).copied().unwrap_or(false));
+        let culled = culling.is_some_and(|c| c.single_sided(t));
         // Skipping here what `draw` would skip at every scale: a degenerate or (culled)
         // back-facing triangle keeps its area's sign and zero at every power-of-two scale.
         let area = edge(exact[0], exact[1], exact[2]);
@@ -795,8 +780,9 @@ mod tests {
             t.push([3 * i, 3 * i + 1, 3 * i + 2]);
         }
         let single: Vec<bool> = (0..t.len()).map(|i| i % 2 == 0).collect();
+        let culling = Culling::new(&p, &t, single.clone());
         let scales = [1, 2, 4];
-        let fast = rasterize_scales(&view, &p, &t, None, Some(&single), None, &scales);
+        let fast = rasterize_scales(&view, &p, &t, None, Some(&culling), None, &scales);
         let fine = view.with_size(8 * 4);
         for (raster, scale) in fast.iter().zip(scales) {
             let size = 8 * scale;
@@ -839,7 +825,8 @@ mod tests {
         }
         let single: Vec<bool> = (0..t.len()).map(|i| i % 3 == 0).collect();
         let original: Vec<u32> = (0..t.len() as u32).map(|i| (i * 7919) % 3000).collect();
-        let args = (Some(single.as_slice()), Some(original.as_slice()));
+        let culling = Culling::new(&p, &t, single);
+        let args = (Some(&culling), Some(original.as_slice()));
         let scales = [1, 2, 4];
         let dispatched = rasterize_scales(&view, &p, &t, None, args.0, args.1, &scales);
         let portable = rasterize_scales_portable(&view, &p, &t, None, args.0, args.1, &scales);
@@ -851,7 +838,7 @@ mod tests {
     fn single_sided_triangles_are_culled_from_behind() {
         // The quad winds counter-clockwise around +Z: it faces a viewer on the +Z side.
         let (p, t) = quad();
-        let single = [true, false];
+        let single = Culling::new(&p, &t, vec![true, false]);
         for (d, drawn) in [
             ([0.0, 0.0, 1.0], [true, true]),
             ([0.0, 0.0, -1.0], [false, true]),
