@@ -400,16 +400,13 @@ fn draw(
         (c, b, true)
     };
     let area = area.abs();
-    let bias = |from: [f64; 3], to: [f64; 3]| -> f64 {
+    // Top (horizontal, going right) and left (going up) edges own their pixels. Without a
+    // branch: which way an edge goes is a coin toss the processor cannot predict.
+    let owns = |from: [f64; 3], to: [f64; 3]| -> bool {
         let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
-        // Top (horizontal, going right) and left (going up) edges own their pixels.
-        if (dy == 0.0 && dx > 0.0) || dy < 0.0 {
-            0.0
-        } else {
-            -1.0
-        }
+        ((dy == 0.0) & (dx > 0.0)) | (dy < 0.0)
     };
-    let (bias0, bias1, bias2) = (bias(p1, p2), bias(p2, a), bias(a, p1));
+    let (bias0, bias1, bias2) = (owns(p1, p2), owns(p2, a), owns(a, p1));
     // Edge functions, with the row term hoisted: the same operations in the same order as
     // `edge(from, to, p)`, so the values are bit-identical to a direct evaluation.
     let edges = [(p1, p2, bias0), (p2, a, bias1), (a, p1, bias2)];
@@ -426,7 +423,7 @@ fn draw(
                 let (f, to, _) = edges[k];
                 rows[k] - (to[1] - f[1]) * (px - f[0])
             });
-            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2 == 0.0);
+            let inside = |k: usize| w[k] > 0.0 || (w[k] == 0.0 && edges[k].2);
             if !(inside(0) && inside(1) && inside(2)) {
                 continue;
             }
