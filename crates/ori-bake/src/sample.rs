@@ -284,14 +284,7 @@ impl<'m> Shader<'m> {
     /// Unit shading normal at the sample, turned to the side of the surface the viewer sees.
     pub fn normal(&self, tri: u32, bary: [f32; 3], toward_viewer: [f64; 3]) -> [f64; 3] {
         let t = self.mesh.triangles[tri as usize];
-        let p = t.map(|i| self.mesh.positions[i as usize].map(f64::from));
-        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-        let mut g = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
+        let mut g = ori_mesh::face_normal(&self.mesh.positions, t);
         if dot(g, toward_viewer) < 0.0 {
             g = g.map(|x| -x); // the back of the face is what is seen
         }

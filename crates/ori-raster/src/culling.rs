@@ -21,7 +21,7 @@
 //! what the `f32` cosine can be off by; each view scales it by `(R + C) / R`. A triangle that
 //! passes has `e > 1024 eps (R + C)`, so the second condition holds too.
 
-use crate::{OrthoView, dot};
+use crate::{OrthoView, cross, dot};
 
 /// Which triangles are culled from behind, with each triangle's [`Facing`].
 #[derive(Clone, Debug)]
@@ -96,11 +96,7 @@ impl Facing {
         let [a, b, c] = corners.map(|p| p.map(f64::from));
         let sub = |p: [f64; 3], q: [f64; 3]| [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
         let (ab, ac, bc) = (sub(a, b), sub(a, c), sub(b, c));
-        let g = [
-            ab[1] * ac[2] - ab[2] * ac[1],
-            ab[2] * ac[0] - ab[0] * ac[2],
-            ab[0] * ac[1] - ab[1] * ac[0],
-        ];
+        let g = cross(ab, ac);
         let edge = [ab, ac, bc]
             .map(|v| dot(v, v).sqrt())
             .into_iter()
@@ -186,7 +182,7 @@ mod tests {
                     // direction, tilted by 1e-3 to 1e-15.
                     1 => {
                         let d = directions[k % directions.len()];
-                        let side = crate::normalize(crate::cross(d, e1));
+                        let side = crate::normalize(cross(d, e1));
                         let tilt = 10f64.powf(-3.0 - 12.0 * next());
                         let along: [f64; 3] = std::array::from_fn(|i| d[i] + tilt * side[i]);
                         let q = |a: f64, b: f64| -> [f64; 3] {

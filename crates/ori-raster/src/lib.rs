@@ -834,17 +834,16 @@ mod tests {
         }
         let single: Vec<bool> = (0..t.len()).map(|i| i % 3 == 0).collect();
         let original: Vec<u32> = (0..t.len() as u32).map(|i| (i * 7919) % 3000).collect();
-        let culling = Culling::new(&p, &t, single);
-        let args = (Some(&culling), Some(original.as_slice()));
+        let (culling, original) = (Some(&Culling::new(&p, &t, single)), Some(&original[..]));
         let scales = [1, 2, 4];
-        let dispatched = rasterize_scales(&view, &p, &t, None, args.0, args.1, &scales);
+        let dispatched = rasterize_scales(&view, &p, &t, None, culling, original, &scales);
         let portable = rasterize_portable(Scene {
             view: &view,
             positions: &p,
             triangles: &t,
             alpha: None,
-            culling: args.0,
-            original: args.1,
+            culling,
+            original,
             scales: &scales,
         });
         assert!(dispatched.iter().all(|r| r.covered() > 0));
