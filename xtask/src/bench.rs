@@ -390,15 +390,27 @@ fn select(runs: usize) -> Result<(), String> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<36} {:>7} {:>8} {:>12} {:>8} {:>8} {:>6}",
-        "model", "faces", "select s", "all masks s", "plt s", "total s", "PLT"
+        "{:<36} {:>7} {:>8} {:>12} {:>8} {:>8} {:>6} {:>18}",
+        "model",
+        "faces",
+        "select s",
+        "all masks s",
+        "plt s",
+        "total s",
+        "PLT",
+        "at region_scale 1 s"
     );
+    // The same selection with the region's views at s0, as before `[select] region_scale`.
+    let full = ori_select::SelectParams {
+        region_scale: 1.0,
+        ..select.clone()
+    };
     for rel in GROWING_MODELS {
         let mesh = load(rel)?;
         let set = ori::build_maps(&mesh, &params)
             .map_err(|e| e.to_string())?
             .set;
-        let (mut ts, mut ta, mut tp) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut ts, mut ta, mut tp, mut tc) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut plt = None;
         for _ in 0..runs.max(1) {
             let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
@@ -430,18 +442,22 @@ fn select(runs: usize) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
             plt = Some(ori::plt(&held_out));
             tp.push(t.elapsed());
+            let t = Instant::now();
+            ori_select::select_with(&evaluator, &full).map_err(|e| e.to_string())?;
+            tc.push(t.elapsed());
         }
-        let (s, a, p) = (median(ts), median(ta), median(tp));
+        let (s, a, p, c) = (median(ts), median(ta), median(tp), median(tc));
         let name = Path::new(rel).file_name().unwrap().to_string_lossy();
         println!(
-            "{:<36} {:>7} {:>8.3} {:>12.3} {:>8.3} {:>8.3} {:>6}",
+            "{:<36} {:>7} {:>8.3} {:>12.3} {:>8.3} {:>8.3} {:>6} {:>18.3}",
             name,
             mesh.triangles.len(),
             s.as_secs_f64(),
             a.as_secs_f64(),
             p.as_secs_f64(),
             (s + p).as_secs_f64(),
-            plt.expect("one run at least").to_string()
+            plt.expect("one run at least").to_string(),
+            c.as_secs_f64()
         );
     }
     Ok(())

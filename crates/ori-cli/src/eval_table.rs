@@ -54,6 +54,9 @@ pub struct Args {
     /// its region at (`[select] region_steps`).
     #[arg(long)]
     region_steps: Option<u32>,
+    /// The region's directions are measured at s0 times this (`[select] region_scale`).
+    #[arg(long)]
+    region_scale: Option<f64>,
     /// Evaluation image edge s0.
     #[arg(long)]
     s0: Option<u32>,
@@ -82,6 +85,7 @@ pub fn run(args: Args) -> ExitCode {
         goal_percent: args.goal_percent.unwrap_or(defaults.goal_percent),
         edge_goal_percent: args.edge_goal_percent.unwrap_or(defaults.edge_goal_percent),
         region_steps: args.region_steps.unwrap_or(defaults.region_steps),
+        region_scale: args.region_scale.unwrap_or(defaults.region_scale),
         s0: args.s0.unwrap_or(defaults.s0),
         linear_steps: args.linear_steps.unwrap_or(defaults.linear_steps),
         binary_steps: args.binary_steps.unwrap_or(defaults.binary_steps),

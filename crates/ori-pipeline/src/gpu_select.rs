@@ -50,8 +50,8 @@ pub fn select(
     });
     let plan = MaskPlan::new(&evaluator, params);
     let mut masks = Vec::new();
-    for (&w, impostors) in plan.directions.iter().zip(&plan.impostors) {
-        let view = evaluator.view(w).map_err(|e| e.to_string())?;
+    for (k, impostors) in plan.impostors.iter().enumerate() {
+        let view = plan.view(&evaluator, k).map_err(|e| e.to_string())?;
         let reference = evaluator.mesh_coverage(&view);
         let camera = Camera::from_view(&view);
         let mut candidates = Vec::new();

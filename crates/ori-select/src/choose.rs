@@ -36,8 +36,8 @@ pub fn choose(masks: &ViewMasks, rule: Rule, goal: u32) -> Choice {
     )
 }
 
-/// The coverage error a subset may leave, in pixels: in an entry's own view, and in each view
-/// at the edge of its region.
+/// The coverage error a subset may leave, in pixels of the entry's own view: in that view,
+/// and in each view of its region.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Goals {
     pub own: u32,
@@ -51,8 +51,10 @@ pub struct Goals {
 /// - `closest:M`: all candidates (the `M` closest facing impostors of `own`).
 /// - `best:M`: try every subset of the candidates of size 1, then 2, and so on. A subset
 ///   reaches the goals when its error in `own` is at most `goals.own` and in every view of
-///   `region` at most `goals.edge`; its error is its worst view's coverage error (then, on
-///   ties, the sum over the views). The first size at which some subset reaches the goals
+///   `region` at most `goals.edge`, a region view's error counted in pixels of `own`
+///   ([`own_pixels`]; the region's views may be drawn smaller, `SelectParams::region_scale`);
+///   its error is its worst view's coverage error so counted (then, on ties, the sum over the
+///   views). The first size at which some subset reaches the goals
 ///   wins, and within that size the subset with the least error; ties go to the subset whose
 ///   impostor indices, sorted ascending, are lexicographically smaller. If no subset reaches
 ///   the goals, the subset with the least error wins, the smaller on ties (then the lower
@@ -76,6 +78,8 @@ pub fn choose_region(own: &ViewMasks, region: &[&ViewMasks], rule: Rule, goals: 
 /// candidate (`bit`: the entry's candidate `bit`, closest first).
 pub(crate) trait EntryMasks {
     fn view_count(&self) -> usize;
+    /// The view's edge in pixels.
+    fn size(&self, view: usize) -> u32;
     fn reference(&self, view: usize) -> &[u64];
     /// The mask of candidate `bit` in `view`; `None`: none given, nothing drawn.
     fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]>;
@@ -173,12 +177,15 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
     let views = masks.view_count();
     let bound = bound.clamp(1, views);
     let goal = |view: usize| if view == 0 { goals.own } else { goals.edge };
+    let count = |view: usize, subset: u32| {
+        own_pixels(masks.missed(view, subset), masks.size(view), masks.size(0))
+    };
     // best:M has M <= MAX_BEST, so a subset is a bit set in a u32.
     let all: u32 = if k == 0 { 0 } else { u32::MAX >> (32 - k) };
     // Measures `m` in the views before the bound; false once one is over its goal.
     let within_goals = |m: &mut Measure| {
         (0..bound).all(|view| {
-            let missed = masks.missed(view, m.subset);
+            let missed = count(view, m.subset);
             m.add(missed);
             missed <= goal(view)
         })
@@ -196,7 +203,7 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
                 break;
             }
             for view in bound..views {
-                let missed = masks.missed(view, m.subset);
+                let missed = count(view, m.subset);
                 m.add(missed);
                 if missed > goal(view) || best.as_ref().is_some_and(|b| m.score() > b.score()) {
                     continue 'open;
@@ -237,11 +244,22 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
     all
 }
 
+/// `missed` pixels of a view `size` pixels across counted in pixels of a view `own` across:
+/// `missed * own^2 / size^2`, rounded half up (exact where `size` divides `own`).
+pub fn own_pixels(missed: u32, size: u32, own: u32) -> u32 {
+    if size == own {
+        return missed;
+    }
+    let (a, b) = (u64::from(own).pow(2), u64::from(size.max(1)).pow(2));
+    u32::try_from((u64::from(missed) * a + b / 2) / b).unwrap_or(u32::MAX)
+}
+
 /// Masks given in full ([`choose_region`]).
 struct Given<'a>(Vec<Measured<'a>>);
 
 /// One view's masks lined up with the candidates of the entry being chosen.
 struct Measured<'a> {
+    size: u32,
     reference: &'a [u64],
     candidates: Vec<Option<&'a [u64]>>,
 }
@@ -258,6 +276,7 @@ impl<'a> Measured<'a> {
             })
             .collect();
         Measured {
+            size: view.reference.size(),
             reference: view.reference.words(),
             candidates,
         }
@@ -267,6 +286,10 @@ impl<'a> Measured<'a> {
 impl EntryMasks for Given<'_> {
     fn view_count(&self) -> usize {
         self.0.len()
+    }
+
+    fn size(&self, view: usize) -> u32 {
+        self.0[view].size
     }
 
     fn reference(&self, view: usize) -> &[u64] {
@@ -306,10 +329,10 @@ mod tests {
         }
     }
 
-    /// A 4 x 4 mask of pixels each set with probability `percent`.
-    fn random_mask(rng: &mut Rng, percent: u64) -> Mask {
-        let mut m = Mask::new(4);
-        (0..16)
+    /// A `size` x `size` mask of pixels each set with probability `percent`.
+    fn random_mask(rng: &mut Rng, size: u32, percent: u64) -> Mask {
+        let mut m = Mask::new(size);
+        (0..(size * size) as usize)
             .filter(|_| rng.below(100) < percent)
             .for_each(|i| m.set(i));
         m
@@ -324,6 +347,9 @@ mod tests {
     impl EntryMasks for Counted<'_> {
         fn view_count(&self) -> usize {
             self.0.view_count()
+        }
+        fn size(&self, view: usize) -> u32 {
+            self.0.size(view)
         }
         fn reference(&self, view: usize) -> &[u64] {
             self.0.reference(view)
@@ -347,7 +373,10 @@ mod tests {
             v.reference.count_minus(&union)
         };
         let key = |subset: u32| {
-            let missed: Vec<u32> = views.iter().map(|v| missed(v, subset)).collect();
+            let missed: Vec<u32> = views
+                .iter()
+                .map(|v| own_pixels(missed(v, subset), v.reference.size(), 4))
+                .collect();
             let over = missed[0] > goals.own || missed[1..].iter().any(|&m| m > goals.edge);
             let worst = missed.iter().copied().max().unwrap_or(0);
             let total: u64 = missed.iter().map(|&m| u64::from(m)).sum();
@@ -382,13 +411,15 @@ mod tests {
             let k = rng.below(9) as usize;
             let ids: Vec<usize> = (0..k).map(|i| 20 - 2 * i - rng.below(2) as usize).collect();
             let mut views = Vec::new();
-            for _ in 0..1 + rng.below(9) {
-                let reference = random_mask(&mut rng, 90);
+            for view in 0..1 + rng.below(9) {
+                // Region views are drawn at the own view's size or smaller.
+                let size = if view > 0 { 2 + rng.below(3) as u32 } else { 4 };
+                let reference = random_mask(&mut rng, size, 90);
                 let mut candidates = Vec::new();
                 for &i in &ids {
                     // Now and then a view lacks a candidate's mask: it draws nothing there.
                     if rng.below(10) > 0 {
-                        candidates.push((i, random_mask(&mut rng, 55)));
+                        candidates.push((i, random_mask(&mut rng, size, 55)));
                     }
                 }
                 views.push(ViewMasks {
@@ -426,7 +457,8 @@ mod tests {
             let reaches = |s: u32| {
                 (0..every).all(|v| {
                     let goal = if v == 0 { goals.own } else { goals.edge };
-                    given().missed(v, s) <= goal
+                    let size = views[v].reference.size();
+                    own_pixels(given().missed(v, s), size, 4) <= goal
                 })
             };
             if k > 0 {

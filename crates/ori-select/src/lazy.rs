@@ -9,7 +9,6 @@ use std::sync::OnceLock;
 use ori_eval::{Evaluator, Mask};
 use ori_raster::OrthoView;
 
-use crate::SelectError;
 use crate::choose::{Choice, EntryMasks, Goals, choose_with};
 use crate::rule::Rule;
 
@@ -23,19 +22,14 @@ pub(crate) struct LazyView {
 }
 
 impl LazyView {
-    pub(crate) fn new(
-        evaluator: &Evaluator<'_>,
-        w: [f64; 3],
-        impostors: &[usize],
-    ) -> Result<LazyView, SelectError> {
-        let view = evaluator.view(w)?;
+    pub(crate) fn new(evaluator: &Evaluator<'_>, view: OrthoView, impostors: &[usize]) -> LazyView {
         let reference = evaluator.mesh_coverage(&view);
-        Ok(LazyView {
+        LazyView {
             view,
             reference,
             impostors: impostors.to_vec(),
             masks: impostors.iter().map(|_| OnceLock::new()).collect(),
-        })
+        }
     }
 }
 
@@ -49,6 +43,10 @@ struct Entry<'a, 'm> {
 impl EntryMasks for Entry<'_, '_> {
     fn view_count(&self) -> usize {
         self.views.len()
+    }
+
+    fn size(&self, view: usize) -> u32 {
+        self.views[view].view.size
     }
 
     fn reference(&self, view: usize) -> &[u64] {

@@ -18,7 +18,11 @@
 //! ([`ori_views::evaluation_regions`]; at the default `region_steps = 6`, 27 per entry and
 //! 5,442 views in all, the corners and edge points shared by neighbouring entries), and a
 //! subset reaches the goal only when it does in its own view (`goal_percent`) and at every
-//! one of those (`edge_goal_percent`). The entry's `missed` stays the error in its own view
+//! one of those (`edge_goal_percent`). The region's views are drawn at `s0 * region_scale`
+//! pixels across (default 0.75: 192 at s0 = 256), the same window with fewer pixels to trace,
+//! their errors counted in pixels of s0 ([`own_pixels`]). Coarser counts vary more from view
+//! to view, so at 0.5 the same goals take a few more impostors per view. The entry's `missed`
+//! stays the error in its own view
 //! (the table's figures); quality is reported at held-out directions ([`held_out`]).
 //!
 //! Work (parallel over views, then over entries, collected in order): the [`MaskPlan`] lists
@@ -71,12 +75,13 @@ mod rule;
 
 use ori_eval::Evaluator;
 use ori_mesh::Mesh;
+use ori_raster::OrthoView;
 use ori_relief::ReliefSet;
 use rayon::prelude::*;
 
 use lazy::LazyView;
 
-pub use choose::{Choice, Goals, ViewMasks, choose, choose_region};
+pub use choose::{Choice, Goals, ViewMasks, choose, choose_region, own_pixels};
 pub use ori_artifact::DecodeError;
 pub use report::{HeldOut, RuleSummary, RuleView, evaluate_rules, held_out, summarize};
 pub use rule::{MAX_BEST, MAX_CLOSEST, Rule, SelectParams};
@@ -93,6 +98,13 @@ pub enum SelectError {
     /// The masks given are not those of the rule's [`MaskPlan`].
     #[error("selection needs the masks of {expected} views, got {got}")]
     Masks { expected: usize, got: usize },
+    /// A view's masks are not at the size the rule's [`MaskPlan`] draws it.
+    #[error("selection needs view {view}'s masks at {expected} x {expected} pixels, got {got}")]
+    MaskSize {
+        view: usize,
+        expected: u32,
+        got: u32,
+    },
 }
 
 /// The selection of one evaluation direction.
@@ -225,19 +237,25 @@ impl Selection {
 /// The views selection measures: the evaluation directions, each with its `M` closest facing
 /// impostors (closest first), then for `best:M` the grid over the region each entry serves
 /// ([`ori_views::evaluation_regions`]), each with every impostor the entries around it may
-/// choose (ascending). Computed on the CPU, whichever backend traces.
+/// choose (ascending), drawn at `s0 * region_scale`. Computed on the CPU, whichever backend
+/// traces.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MaskPlan {
     /// View directions, in order.
     pub directions: Vec<[f64; 3]>,
     /// The impostors to trace in each view.
     pub impostors: Vec<Vec<usize>>,
+    /// Views before this one are the entries' own, drawn at s0; the rest are the regions'.
+    pub own_views: usize,
+    /// The image edge of the regions' views.
+    pub region_size: u32,
 }
 
 impl MaskPlan {
     pub fn new(evaluator: &Evaluator<'_>, params: &SelectParams) -> MaskPlan {
         let m = params.rule.m() as usize;
         let mut directions = ori_views::evaluation_directions();
+        let own_views = directions.len();
         let mut impostors: Vec<Vec<usize>> = directions
             .iter()
             .map(|&w| evaluator.facing(w).into_iter().take(m).collect())
@@ -260,27 +278,34 @@ impl MaskPlan {
         MaskPlan {
             directions,
             impostors,
+            own_views,
+            region_size: params.region_size(),
         }
+    }
+
+    /// The frame of view `k`: the evaluator's, at the region's size past the own views.
+    pub fn view(&self, evaluator: &Evaluator<'_>, k: usize) -> Result<OrthoView, SelectError> {
+        let view = evaluator.view(self.directions[k])?;
+        Ok(if k < self.own_views {
+            view
+        } else {
+            view.with_size(self.region_size)
+        })
     }
 }
 
-/// The masks of one view: the mesh's coverage at `w` and, for each of `impostors` in order,
+/// The masks of one view: the mesh's coverage in `view` and, for each of `impostors` in order,
 /// the pixels of that coverage it draws.
-pub fn view_masks(
-    evaluator: &Evaluator<'_>,
-    w: [f64; 3],
-    impostors: &[usize],
-) -> Result<ViewMasks, SelectError> {
-    let view = evaluator.view(w)?;
-    let reference = evaluator.mesh_coverage(&view);
+pub fn view_masks(evaluator: &Evaluator<'_>, view: &OrthoView, impostors: &[usize]) -> ViewMasks {
+    let reference = evaluator.mesh_coverage(view);
     let candidates = impostors
         .iter()
-        .map(|&i| (i, evaluator.impostor_mask(&view, i, Some(&reference))))
+        .map(|&i| (i, evaluator.impostor_mask(view, i, Some(&reference))))
         .collect();
-    Ok(ViewMasks {
+    ViewMasks {
         reference,
         candidates,
-    })
+    }
 }
 
 /// [`view_masks`] for every view of `plan`, in parallel, in order.
@@ -288,10 +313,12 @@ pub fn all_view_masks(
     evaluator: &Evaluator<'_>,
     plan: &MaskPlan,
 ) -> Result<Vec<ViewMasks>, SelectError> {
-    plan.directions
-        .par_iter()
-        .zip(&plan.impostors)
-        .map(|(&w, impostors)| view_masks(evaluator, w, impostors))
+    (0..plan.directions.len())
+        .into_par_iter()
+        .map(|k| {
+            let view = plan.view(evaluator, k)?;
+            Ok(view_masks(evaluator, &view, &plan.impostors[k]))
+        })
         .collect()
 }
 
@@ -310,6 +337,20 @@ pub fn select_from_masks(
             expected,
             got: masks.len(),
         });
+    }
+    for (k, m) in masks.iter().enumerate() {
+        let size = if k < count {
+            params.s0
+        } else {
+            params.region_size()
+        };
+        if m.reference.size() != size {
+            return Err(SelectError::MaskSize {
+                view: k,
+                expected: size,
+                got: m.reference.size(),
+            });
+        }
     }
     let goals = params.goals();
     let entries = choose_entries(masks, &regions, |own, region| {
@@ -372,12 +413,16 @@ pub fn select_with(
 ) -> Result<Selection, SelectError> {
     params.validate()?;
     let plan = MaskPlan::new(evaluator, params);
-    let views: Vec<LazyView> = plan
-        .directions
-        .par_iter()
-        .zip(&plan.impostors)
-        .map(|(&w, impostors)| LazyView::new(evaluator, w, impostors))
-        .collect::<Result<_, _>>()?;
+    let views: Vec<LazyView> = (0..plan.directions.len())
+        .into_par_iter()
+        .map(|k| {
+            Ok(LazyView::new(
+                evaluator,
+                plan.view(evaluator, k)?,
+                &plan.impostors[k],
+            ))
+        })
+        .collect::<Result<_, SelectError>>()?;
     let goals = params.goals();
     let entries = choose_entries(&views, &region_samples(params), |own, region| {
         lazy::choose_entry(evaluator, own, region, params.rule, goals)

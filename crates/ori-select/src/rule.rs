@@ -95,6 +95,9 @@ pub struct SelectParams {
     /// its region at (default 6: 27 directions per entry; 2: its corners and edge midpoints;
     /// 1 to 8).
     pub region_steps: u32,
+    /// The region's directions are measured at `s0 * region_scale` pixels across, rounded
+    /// (default 0.75; 0.25 to 1), their coverage errors counted in pixels of s0.
+    pub region_scale: f64,
     /// Evaluation image edge s0 (default 256).
     pub s0: u32,
     /// Linear-search steps of the runtime rule (default 16).
@@ -114,6 +117,7 @@ impl Default for SelectParams {
             goal_percent: 0.2,
             edge_goal_percent: 0.29,
             region_steps: 6,
+            region_scale: 0.75,
             s0: e.s0,
             linear_steps: e.linear_steps,
             binary_steps: e.binary_steps,
@@ -162,6 +166,12 @@ impl SelectParams {
                 self.region_steps
             )));
         }
+        if !(0.25..=1.0).contains(&self.region_scale) {
+            return Err(SelectError::Params(format!(
+                "select.region_scale = {} must be 0.25 to 1",
+                self.region_scale
+            )));
+        }
         self.eval_params()
             .validate()
             .map_err(|e| SelectError::Params(format!("select: {e}")))
@@ -196,6 +206,11 @@ impl SelectParams {
             own: self.goal_pixels(),
             edge: self.edge_goal_pixels(),
         }
+    }
+
+    /// The edge of the region's views, in pixels.
+    pub fn region_size(&self) -> u32 {
+        ((f64::from(self.s0) * self.region_scale).round() as u32).max(1)
     }
 }
 

@@ -1,7 +1,7 @@
 //! The subset search on hand-made masks: sizes, goal, tie-breaking, ordering.
 
 use ori_eval::Mask;
-use ori_select::{Choice, Goals, Rule, ViewMasks, choose, choose_region};
+use ori_select::{Choice, Goals, Rule, ViewMasks, choose, choose_region, own_pixels};
 
 /// A 4 x 4 image whose first `n` pixels the mesh covers.
 fn reference(n: usize) -> Mask {
@@ -118,6 +118,34 @@ fn a_region_is_met_at_its_worst_view() {
         choose_region(&own, &[&edge], Rule::Best(3), strict_own),
         choice(&[7, 5], 0)
     );
+    // A region view drawn at half the size counts each of its pixels four times: there 7
+    // alone misses one pixel of four, 4 pixels of the own view's, over the goal of 3.
+    let coarse = |pixels: &[usize]| {
+        let mut m = Mask::new(2);
+        pixels.iter().for_each(|&i| m.set(i));
+        m
+    };
+    let half = ViewMasks {
+        reference: coarse(&[0, 1, 2, 3]),
+        candidates: vec![
+            (3, coarse(&[0])),
+            (5, coarse(&[3])),
+            (7, coarse(&[0, 1, 2])),
+        ],
+    };
+    let edge_3 = Goals { own: 2, edge: 3 };
+    assert_eq!(
+        choose_region(&own, &[&half], Rule::Best(3), edge_3),
+        choice(&[7, 5], 0)
+    );
+    let full = ViewMasks {
+        reference: reference(4),
+        candidates: vec![(3, mask(&[0])), (5, mask(&[3])), (7, mask(&[0, 1, 2]))],
+    };
+    assert_eq!(
+        choose_region(&own, &[&full], Rule::Best(3), edge_3),
+        choice(&[7], 1)
+    );
     // A mask the edge view lacks draws nothing there; masks of other impostors are ignored.
     let partial = masks(&[
         (9, &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9]),
@@ -151,4 +179,17 @@ fn closest_draws_more_candidates_than_a_subset_has_bits() {
     // The first 9 leave pixel 9 uncovered.
     let nine: Vec<usize> = (100..109).collect();
     assert_eq!(choose(&vm, Rule::Closest(9), 0), choice(&nine, 1));
+}
+
+#[test]
+fn a_smaller_view_counts_its_error_in_pixels_of_the_own_view() {
+    assert_eq!(own_pixels(5, 256, 256), 5);
+    assert_eq!(own_pixels(1, 128, 256), 4);
+    // 10 * 256^2 / 192^2 = 17.8, rounded.
+    assert_eq!(own_pixels(10, 192, 256), 18);
+    // 9 * 16 / 9 = 16 exactly; 1 * 16 / 9 = 1.8 -> 2; a half rounds up: 2 * 9 / 4 = 4.5 -> 5.
+    assert_eq!(own_pixels(9, 3, 4), 16);
+    assert_eq!(own_pixels(1, 3, 4), 2);
+    assert_eq!(own_pixels(2, 2, 3), 5);
+    assert_eq!(own_pixels(0, 48, 64), 0);
 }

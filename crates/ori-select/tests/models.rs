@@ -92,6 +92,16 @@ fn masks_traced_as_the_search_reads_them_choose_what_all_masks_choose() {
     let every = select_from_masks(&masks, &params, set.maps.len()).expect("select");
     assert_eq!(select_with(&evaluator, &params).expect("select"), every);
     assert!(every.entries.iter().any(|e| e.impostors.len() > 1));
+    // The entries' own views are drawn at s0, their regions' at s0 * region_scale; masks
+    // of another size are refused, not searched.
+    assert_eq!(masks[plan.own_views - 1].reference.size(), 64);
+    assert_eq!(masks[plan.own_views].reference.size(), 48);
+    let full_size = SelectParams {
+        region_scale: 1.0,
+        ..params.clone()
+    };
+    let refused = select_from_masks(&masks, &full_size, set.maps.len()).unwrap_err();
+    assert!(refused.to_string().contains("64 x 64"), "{refused}");
 }
 
 #[test]
@@ -115,6 +125,13 @@ fn params_come_from_a_select_section() {
         ..SelectParams::default()
     };
     assert!(too_far.validate().is_err());
+    for scale in ["0.0", "0.2", "1.01", "nan", "inf"] {
+        let e = toml::from_str::<SelectParams>(&format!("region_scale = {scale}"))
+            .map_err(|e| e.to_string())
+            .and_then(|p| p.validate().map_err(|e| e.to_string()))
+            .unwrap_err();
+        assert!(e.contains("select.region_scale"), "{scale}: {e}");
+    }
 }
 
 #[test]
