@@ -382,10 +382,12 @@ fn select(runs: usize) -> Result<(), String> {
     let params = unplaced();
     let select = &params.select;
     println!(
-        "selection ({}, goal {}%, region steps {}, s0 = {}) + PLT, {} threads, median of {runs}",
+        "selection ({}, goal {}%, region steps {} at scale {}, s0 = {}) + PLT, {} threads, \
+         median of {runs}",
         select.rule,
         select.goal_percent,
         select.region_steps,
+        select.region_scale,
         select.s0,
         rayon::current_num_threads()
     );
