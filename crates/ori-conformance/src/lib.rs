@@ -271,7 +271,11 @@ impl Loaded {
     /// The selection parameters the package was measured with (its `params.select`).
     pub fn select_params(&self) -> Result<SelectParams, String> {
         let select = self.package.manifest.params.get("select").cloned();
-        let select = select.ok_or("the package's params have no \"select\" section")?;
+        let mut select = select.ok_or("the package's params have no \"select\" section")?;
+        // Packages written before `region_scale` existed measured the regions at s0.
+        if let Some(keys) = select.as_object_mut() {
+            keys.entry("region_scale").or_insert(serde_json::json!(1.0));
+        }
         let params: SelectParams =
             serde_json::from_value(select).map_err(|e| format!("params.select: {e}"))?;
         params.validate().map_err(|e| e.to_string())?;
