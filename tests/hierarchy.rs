@@ -148,8 +148,10 @@ fn children_cover_the_mesh_at_least_as_well_as_their_parent() {
     eprintln!("no leaf mesh up to {leafless:.0} px: {range:.2} x the root's PLT");
     // Measured 1.80 (602 px over a root PLT of 334) with children's goals halved
     // (`goal_scale`), 1.39 with the root's goals; 1.00 when what a node's cuts expose
-    // counted against it.
-    assert!(range >= 1.6, "{range:.2} x the root's PLT");
+    // counted against it. With the regions measured at 0.75 of s0 (`region_scale`), 1.56:
+    // the same 521 px without a leaf mesh as at s0 (1.84), over a root that holds its goal
+    // up to 334 px instead of 282.
+    assert!(range >= 1.5, "{range:.2} x the root's PLT");
 }
 
 /// The leaf meshes a runtime supplies: the model clipped to each leaf's cell.
