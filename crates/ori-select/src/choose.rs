@@ -245,11 +245,9 @@ fn search_best(masks: &impl EntryMasks, ids: &[usize], goals: Goals, bound: usiz
 }
 
 /// `missed` pixels of a view `size` pixels across counted in pixels of a view `own` across:
-/// `missed * own^2 / size^2`, rounded half up (exact where `size` divides `own`).
+/// `missed * own^2 / size^2`, rounded half up (exact where `size` divides `own`, so `missed`
+/// itself at the same size).
 pub fn own_pixels(missed: u32, size: u32, own: u32) -> u32 {
-    if size == own {
-        return missed;
-    }
     let (a, b) = (u64::from(own).pow(2), u64::from(size.max(1)).pow(2));
     u32::try_from((u64::from(missed) * a + b / 2) / b).unwrap_or(u32::MAX)
 }
