@@ -9,10 +9,20 @@ mod common;
 use std::fs;
 use std::path::Path;
 use std::process::Command;
+use std::sync::{Mutex, MutexGuard};
 use std::time::Instant;
 
 use common::*;
 use serde_json::Value;
+
+/// The orbit test times the page, so the tests of this file run one at a time: on two cores
+/// another test's build or browser beside it made its frames take 1.5 to 2 times as long.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// [`ONE_AT_A_TIME`], also after a test that held it failed.
+fn alone() -> MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// Headless Chromium with SwiftShader's WebGL2, reading files beside the page, the page's
 /// DOM printed once its timers and loads have settled (virtual time).
@@ -365,6 +375,7 @@ fn cases(single: &[u8], hierarchy: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
 
 #[test]
 fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
+    let _alone = alone();
     let p = Project::new(&["bunny", "avocado", "box-vertex-colors"]);
     copy_dir(&samples().join("bunny"), &p.path("assets/bunny-tree"));
     // Two hierarchies, drawn by their traversal: the box as a root and two halves, the bunny
@@ -527,6 +538,7 @@ fn the_viewer_draws_what_preview_draws_and_reads_what_the_rust_reader_reads() {
 
 #[test]
 fn the_viewer_matches_the_conformance_data() {
+    let _alone = alone();
     // docs/RUNTIME.md section 13: every impostor's full mask in ten views of three packages,
     // drawn by the page alone; exact with exact depth codes (R8, or BC4 decoded as the
     // document says), within 1 pixel in 100 with the browser's own BC4 decoder.
@@ -559,6 +571,7 @@ fn the_viewer_matches_the_conformance_data() {
 
 #[test]
 fn sixty_frames_of_orbit_around_the_dragon_take_under_five_seconds() {
+    let _alone = alone();
     let p = Project::new(&[]);
     let model = "stanford/dragon/dragon_res2_binary.ply";
     let to = p.path("assets").join(model);
