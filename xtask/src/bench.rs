@@ -392,7 +392,7 @@ fn select(runs: usize) -> Result<(), String> {
         rayon::current_num_threads()
     );
     println!(
-        "{:<36} {:>7} {:>8} {:>12} {:>8} {:>8} {:>6} {:>18}",
+        "{:<36} {:>7} {:>8} {:>12} {:>8} {:>8} {:>6} {:>18} {:>18}",
         "model",
         "faces",
         "select s",
@@ -400,19 +400,28 @@ fn select(runs: usize) -> Result<(), String> {
         "plt s",
         "total s",
         "PLT",
-        "at region_scale 1 s"
+        "at region_scale 1 s",
+        "on triangles s"
     );
-    // The same selection with the region's views at s0, as before `[select] region_scale`.
-    let full = ori_select::SelectParams {
-        region_scale: 1.0,
-        ..select.clone()
-    };
+    // The same selection with the region's views at s0, as before `[select] region_scale`,
+    // and on the triangles' grids, as before `[select] region_shape`.
+    let variants = [
+        ori_select::SelectParams {
+            region_scale: 1.0,
+            ..select.clone()
+        },
+        ori_select::SelectParams {
+            region_shape: ori_select::RegionShape::Triangle,
+            ..select.clone()
+        },
+    ];
     for rel in GROWING_MODELS {
         let mesh = load(rel)?;
         let set = ori::build_maps(&mesh, &params)
             .map_err(|e| e.to_string())?
             .set;
-        let (mut ts, mut ta, mut tp, mut tc) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut ts, mut ta, mut tp) = (Vec::new(), Vec::new(), Vec::new());
+        let mut tv = [Vec::new(), Vec::new()];
         let mut plt = None;
         for _ in 0..runs.max(1) {
             let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
@@ -444,14 +453,17 @@ fn select(runs: usize) -> Result<(), String> {
             .map_err(|e| e.to_string())?;
             plt = Some(ori::plt(&held_out));
             tp.push(t.elapsed());
-            let t = Instant::now();
-            ori_select::select_with(&evaluator, &full).map_err(|e| e.to_string())?;
-            tc.push(t.elapsed());
+            for (variant, times) in variants.iter().zip(&mut tv) {
+                let t = Instant::now();
+                ori_select::select_with(&evaluator, variant).map_err(|e| e.to_string())?;
+                times.push(t.elapsed());
+            }
         }
-        let (s, a, p, c) = (median(ts), median(ta), median(tp), median(tc));
+        let (s, a, p) = (median(ts), median(ta), median(tp));
+        let [c, g] = tv.map(median);
         let name = Path::new(rel).file_name().unwrap().to_string_lossy();
         println!(
-            "{:<36} {:>7} {:>8.3} {:>12.3} {:>8.3} {:>8.3} {:>6} {:>18.3}",
+            "{:<36} {:>7} {:>8.3} {:>12.3} {:>8.3} {:>8.3} {:>6} {:>18.3} {:>18.3}",
             name,
             mesh.triangles.len(),
             s.as_secs_f64(),
@@ -459,7 +471,8 @@ fn select(runs: usize) -> Result<(), String> {
             p.as_secs_f64(),
             (s + p).as_secs_f64(),
             plt.expect("one run at least").to_string(),
-            c.as_secs_f64()
+            c.as_secs_f64(),
+            g.as_secs_f64()
         );
     }
     Ok(())

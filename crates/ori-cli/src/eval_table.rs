@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use ori_eval::{EvalParams, Evaluator};
 use ori_pipeline::ori::OriParams;
-use ori_select::{Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
+use ori_select::{RegionShape, Rule, RuleSummary, SelectParams, evaluate_rules, summarize};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -54,6 +54,10 @@ pub struct Args {
     /// its region at (`[select] region_steps`).
     #[arg(long)]
     region_steps: Option<u32>,
+    /// Where `best:M` measures each entry's region: `cell` or `triangle`
+    /// (`[select] region_shape`).
+    #[arg(long, value_parser = parse_region_shape)]
+    region_shape: Option<RegionShape>,
     /// The region's directions are measured at s0 times this (`[select] region_scale`).
     #[arg(long)]
     region_scale: Option<f64>,
@@ -77,6 +81,14 @@ pub struct Args {
     pictures: Option<PathBuf>,
 }
 
+fn parse_region_shape(text: &str) -> Result<RegionShape, String> {
+    match text {
+        "cell" => Ok(RegionShape::Cell),
+        "triangle" => Ok(RegionShape::Triangle),
+        _ => Err(format!("\"{text}\": cell or triangle")),
+    }
+}
+
 /// Exit status 1: the model cannot be loaded or evaluated; 2: bad options.
 pub fn run(args: Args) -> ExitCode {
     let defaults = SelectParams::default();
@@ -85,6 +97,7 @@ pub fn run(args: Args) -> ExitCode {
         goal_percent: args.goal_percent.unwrap_or(defaults.goal_percent),
         edge_goal_percent: args.edge_goal_percent.unwrap_or(defaults.edge_goal_percent),
         region_steps: args.region_steps.unwrap_or(defaults.region_steps),
+        region_shape: args.region_shape.unwrap_or(defaults.region_shape),
         region_scale: args.region_scale.unwrap_or(defaults.region_scale),
         s0: args.s0.unwrap_or(defaults.s0),
         linear_steps: args.linear_steps.unwrap_or(defaults.linear_steps),

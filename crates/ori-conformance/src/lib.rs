@@ -272,9 +272,12 @@ impl Loaded {
     pub fn select_params(&self) -> Result<SelectParams, String> {
         let select = self.package.manifest.params.get("select").cloned();
         let mut select = select.ok_or("the package's params have no \"select\" section")?;
-        // Packages written before `region_scale` existed measured the regions at s0.
+        // Packages written before `region_scale` existed measured the regions at s0, and
+        // those written before `region_shape` on the triangles' grids.
         if let Some(keys) = select.as_object_mut() {
             keys.entry("region_scale").or_insert(serde_json::json!(1.0));
+            keys.entry("region_shape")
+                .or_insert(serde_json::json!("triangle"));
         }
         let params: SelectParams =
             serde_json::from_value(select).map_err(|e| format!("params.select: {e}"))?;

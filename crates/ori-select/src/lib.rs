@@ -13,12 +13,13 @@
 //!
 //! # Each entry serves a region
 //! The runtime draws, at any direction, the entry of the nearest evaluation direction, so an
-//! entry serves about its spherical triangle of directions. `best:M` therefore measures a
-//! subset in the entry's own view and at a grid of directions over the triangle
-//! ([`ori_views::evaluation_regions`]; at the default `region_steps = 6`, 27 per entry and
-//! 5,442 views in all, the corners and edge points shared by neighbouring entries), and a
-//! subset reaches the goal only when it does in its own view (`goal_percent`) and at every
-//! one of those (`edge_goal_percent`). The region's views are drawn at `s0 * region_scale`
+//! entry serves its cell of directions, about its spherical triangle. `best:M` therefore
+//! measures a subset in the entry's own view and at directions over the cell
+//! ([`SelectParams::regions`]: the points of a grid over the triangle,
+//! [`ori_views::evaluation_regions`], that the entry serves, and its cell's corners; at the
+//! default `region_steps = 6`, 29 to 31 per entry, 5,922 views in all, most shared by
+//! neighbouring entries), and a subset reaches the goal only when it does in its own view
+//! (`goal_percent`) and at every one of those (`edge_goal_percent`). The region's views are drawn at `s0 * region_scale`
 //! pixels across (default 0.75: 192 at s0 = 256), the same window with fewer pixels to trace,
 //! their errors counted in pixels of s0 ([`own_pixels`]). Coarser counts vary more from view
 //! to view, so at 0.5 the same goals take a few more impostors per view. The entry's `missed`
@@ -84,7 +85,7 @@ use lazy::LazyView;
 pub use choose::{Choice, Goals, ViewMasks, choose, choose_region, own_pixels};
 pub use ori_artifact::DecodeError;
 pub use report::{HeldOut, RuleSummary, RuleView, evaluate_rules, held_out, summarize};
-pub use rule::{MAX_BEST, MAX_CLOSEST, Rule, SelectParams};
+pub use rule::{MAX_BEST, MAX_CLOSEST, RegionShape, Rule, SelectParams};
 
 /// Why selection failed.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -236,7 +237,7 @@ impl Selection {
 
 /// The views selection measures: the evaluation directions, each with its `M` closest facing
 /// impostors (closest first), then for `best:M` the grid over the region each entry serves
-/// ([`ori_views::evaluation_regions`]), each with every impostor the entries around it may
+/// ([`SelectParams::regions`]), each with every impostor the entries around it may
 /// choose (ascending), drawn at `s0 * region_scale`. Computed on the CPU, whichever backend
 /// traces.
 #[derive(Clone, Debug, PartialEq)]
@@ -261,7 +262,7 @@ impl MaskPlan {
             .map(|&w| evaluator.facing(w).into_iter().take(m).collect())
             .collect();
         if let Rule::Best(_) = params.rule {
-            let regions = ori_views::evaluation_regions(params.region_steps as usize);
+            let regions = params.regions();
             let mut around = vec![Vec::new(); regions.samples.len()];
             for (entry, samples) in regions.of_direction.iter().enumerate() {
                 for &s in samples {
@@ -360,10 +361,10 @@ pub fn select_from_masks(
 }
 
 /// For each evaluation direction, its region's views (`best:M`; none for `closest:M`) as
-/// indices into [`ori_views::evaluation_regions`]' samples, corners first.
+/// indices into [`SelectParams::regions`]' samples, the triangle's corners first.
 fn region_samples(params: &SelectParams) -> Vec<Vec<usize>> {
     match params.rule {
-        Rule::Best(_) => ori_views::evaluation_regions(params.region_steps as usize).of_direction,
+        Rule::Best(_) => params.regions().of_direction,
         Rule::Closest(_) => Vec::new(),
     }
 }

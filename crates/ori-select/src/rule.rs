@@ -20,6 +20,19 @@ pub enum Rule {
     Best(u32),
 }
 
+/// The directions `best:M` measures an entry's region at (`[select] region_shape`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RegionShape {
+    /// The grid over the entry's triangle (`ori_views::evaluation_regions`), as packages that
+    /// do not record the key were selected.
+    Triangle,
+    /// The cell the runtime serves from the entry (`ori_views::EvaluationRegions::to_cells`):
+    /// the grid's points it serves and its cell's corners.
+    #[default]
+    Cell,
+}
+
 /// Largest `M` of `best:M`: 2^M - 1 subsets are tried per view.
 pub const MAX_BEST: u32 = 16;
 /// The most impostors `closest:M` may draw per view (the selection artifact stores the count
@@ -95,6 +108,9 @@ pub struct SelectParams {
     /// its region at (default 6: 27 directions per entry; 2: its corners and edge midpoints;
     /// 1 to 8).
     pub region_steps: u32,
+    /// Where an entry's region is measured: `"cell"` (default), the directions the runtime
+    /// serves from it, or `"triangle"`, the grid over its triangle alone.
+    pub region_shape: RegionShape,
     /// The region's directions are measured at `s0 * region_scale` pixels across, rounded
     /// (default 0.75; 0.25 to 1), their coverage errors counted in pixels of s0.
     pub region_scale: f64,
@@ -117,6 +133,7 @@ impl Default for SelectParams {
             goal_percent: 0.2,
             edge_goal_percent: 0.29,
             region_steps: 6,
+            region_shape: RegionShape::Cell,
             region_scale: 0.75,
             s0: e.s0,
             linear_steps: e.linear_steps,
@@ -211,6 +228,15 @@ impl SelectParams {
     /// The edge of the region's views, in pixels.
     pub fn region_size(&self) -> u32 {
         ((f64::from(self.s0) * self.region_scale).round() as u32).max(1)
+    }
+
+    /// The directions `best:M` measures each entry's region at ([`RegionShape`]).
+    pub fn regions(&self) -> ori_views::EvaluationRegions {
+        let grid = ori_views::evaluation_regions(self.region_steps as usize);
+        match self.region_shape {
+            RegionShape::Triangle => grid,
+            RegionShape::Cell => grid.to_cells(),
+        }
     }
 }
 

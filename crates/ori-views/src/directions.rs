@@ -203,6 +203,137 @@ pub fn evaluation_regions(steps: usize) -> EvaluationRegions {
     }
 }
 
+impl EvaluationRegions {
+    /// These regions made the cells the runtime serves from each entry (it draws a direction
+    /// with its nearest entry): where the triangles are not regular a cell reaches a little
+    /// past its triangle, so each entry's cell corners ([`cell_corners`]) are added (unless
+    /// within [`SAME_DIRECTION`] of a sample it has), and parts of a triangle belong to a
+    /// neighbour's cell, so each entry then keeps only the samples it serves or nearly
+    /// serves: `dot(p, own) >= max over entries of dot(p, entry) - CELL_MARGIN`. Samples no
+    /// entry keeps are dropped, the rest renumbered in order of first use.
+    pub fn to_cells(mut self) -> EvaluationRegions {
+        let directions = evaluation_directions();
+        let corners = cell_corners();
+        let mut added: Vec<Option<usize>> = vec![None; corners.corners.len()];
+        for (entry, of_entry) in corners.of_direction.iter().enumerate() {
+            for &c in of_entry {
+                let v = corners.corners[c];
+                let samples = &self.samples;
+                let known = self.of_direction[entry]
+                    .iter()
+                    .any(|&s| 1.0 - dot(samples[s], v) < SAME_DIRECTION);
+                if known {
+                    continue;
+                }
+                let index = *added[c].get_or_insert_with(|| {
+                    self.samples.push(v);
+                    self.samples.len() - 1
+                });
+                self.of_direction[entry].push(index);
+            }
+        }
+        let nearest: Vec<f64> = self
+            .samples
+            .iter()
+            .map(|&p| nearest_dot(&directions, p))
+            .collect();
+        let mut renumbered: Vec<Option<usize>> = vec![None; self.samples.len()];
+        let mut samples = Vec::new();
+        for (entry, of_entry) in self.of_direction.iter_mut().enumerate() {
+            of_entry
+                .retain(|&s| dot(self.samples[s], directions[entry]) >= nearest[s] - CELL_MARGIN);
+            for s in of_entry.iter_mut() {
+                *s = *renumbered[*s].get_or_insert_with(|| {
+                    samples.push(self.samples[*s]);
+                    samples.len() - 1
+                });
+            }
+        }
+        self.samples = samples;
+        self
+    }
+}
+
+/// How far into a neighbour's cell an entry's region reaches, in `dot`: about 0.9 degrees
+/// past the edge between two neighbouring cells, a third of the grid's step at the default
+/// 6 steps. Without it the samples on a shared edge serve one side only, and the errors
+/// between grid points near an edge go unmeasured on the other.
+pub const CELL_MARGIN: f64 = 0.003;
+
+/// The largest `dot(p, d)` over `directions`.
+fn nearest_dot(directions: &[[f64; 3]], p: [f64; 3]) -> f64 {
+    directions
+        .iter()
+        .map(|&d| dot(p, d))
+        .fold(f64::MIN, f64::max)
+}
+
+/// Two unit directions closer than this in `1 - dot` are one corner (about 1.4e-6 radians;
+/// the same corner computed from different triples differs by rounding only).
+const SAME_DIRECTION: f64 = 1e-12;
+
+/// The corners of the cells of [`evaluation_directions`] on the sphere (each direction's
+/// cell: the directions nearer to it than to any other), and which entries meet at each.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellCorners {
+    /// Each corner once, in order of discovery.
+    pub corners: Vec<[f64; 3]>,
+    /// For evaluation direction `i`: the corners of its cell, as indices into `corners`.
+    pub of_direction: Vec<Vec<usize>>,
+}
+
+/// [`CellCorners`] of the evaluation directions `t`: for `a < b < c` with the three pairwise
+/// `dot > 0.9`, `v = normalize(cross(b - a, c - a))`, negated if `dot(v, a) < 0`; kept if no
+/// direction has `dot(v, d) > dot(v, a) + 1e-9` (no entry nearer) and no kept corner is the
+/// same direction ([`SAME_DIRECTION`]). Each corner belongs to every entry `d` with
+/// `dot(v, d) >= max_d dot(v, d) - 1e-9` (three, or more where more cells meet).
+pub fn cell_corners() -> CellCorners {
+    const NEAR: f64 = 0.9;
+    const TIE: f64 = 1e-9;
+    let t = evaluation_directions();
+    let near: Vec<Vec<usize>> = (0..t.len())
+        .map(|a| {
+            (a + 1..t.len())
+                .filter(|&b| dot(t[a], t[b]) > NEAR)
+                .collect()
+        })
+        .collect();
+    let nearest_dot = |v: [f64; 3]| nearest_dot(&t, v);
+    let mut corners: Vec<[f64; 3]> = Vec::new();
+    for (a, after_a) in near.iter().enumerate() {
+        for (i, &b) in after_a.iter().enumerate() {
+            for &c in &after_a[i + 1..] {
+                if dot(t[b], t[c]) <= NEAR {
+                    continue;
+                }
+                let mut v = normalize(cross(sub(t[b], t[a]), sub(t[c], t[a])));
+                if dot(v, t[a]) < 0.0 {
+                    v = v.map(|x| -x);
+                }
+                if nearest_dot(v) > dot(v, t[a]) + TIE
+                    || corners.iter().any(|&k| 1.0 - dot(k, v) < SAME_DIRECTION)
+                {
+                    continue;
+                }
+                corners.push(v);
+            }
+        }
+    }
+    let mut of_direction = vec![Vec::new(); t.len()];
+    for (k, &v) in corners.iter().enumerate() {
+        let nearest = nearest_dot(v);
+        for (entry, &d) in t.iter().enumerate() {
+            if dot(v, d) >= nearest - TIE {
+                of_direction[entry].push(k);
+            }
+        }
+    }
+    CellCorners {
+        corners,
+        of_direction,
+    }
+}
+
 /// The 162 corners of the evaluation triangles, in order of first use: the directions
 /// farthest from every evaluation direction, where the runtime's nearest entry serves a view
 /// least well.
@@ -335,6 +466,85 @@ mod tests {
                     );
                     assert!(!held_out.contains(&p) && !directions.contains(&p));
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn cell_corners_are_equidistant_from_their_entries_and_reach_past_the_triangles() {
+        let directions = evaluation_directions();
+        let triangles = geodesic_triangles(2);
+        let cells = cell_corners();
+        let mut outside = 0;
+        for (i, of_entry) in cells.of_direction.iter().enumerate() {
+            // A cell of this near-regular tiling has five to nine corners (a pentagon or
+            // hexagon, or a hexagon whose near-cocircular corners split in two).
+            assert!((5..=9).contains(&of_entry.len()), "entry {i}: {of_entry:?}");
+            for &k in of_entry {
+                let v = cells.corners[k];
+                let own = dot(v, directions[i]);
+                let nearest = directions
+                    .iter()
+                    .map(|&d| dot(v, d))
+                    .fold(f64::MIN, f64::max);
+                assert!(own >= nearest - 1e-9, "entry {i}, corner {k}");
+                outside += usize::from(!inside(v, triangles[i]));
+            }
+        }
+        for k in 0..cells.corners.len() {
+            let entries = cells.of_direction.iter().filter(|c| c.contains(&k)).count();
+            assert!(entries >= 3, "corner {k}: {entries} entries");
+        }
+        assert!(outside > 0, "no cell corner outside its entry's triangle");
+    }
+
+    #[test]
+    fn cell_regions_hold_what_each_entry_serves_and_nothing_far_past_it() {
+        let directions = evaluation_directions();
+        let held_out = held_out_directions(DEFAULT_HELD_OUT_SEED);
+        for steps in [2, 6] {
+            let grid = evaluation_regions(steps);
+            let cells = evaluation_regions(steps).to_cells();
+            let mut used = vec![false; cells.samples.len()];
+            for (entry, samples) in cells.of_direction.iter().enumerate() {
+                for (j, &a) in samples.iter().enumerate() {
+                    used[a] = true;
+                    let p = cells.samples[a];
+                    let nearest = nearest_dot(&directions, p);
+                    assert!(dot(p, directions[entry]) >= nearest - CELL_MARGIN);
+                    assert!(!held_out.contains(&p) && !directions.contains(&p));
+                    for &b in &samples[j + 1..] {
+                        assert!(1.0 - dot(p, cells.samples[b]) >= SAME_DIRECTION);
+                    }
+                }
+                // The grid's samples an entry serves stay in its region.
+                for &g in &grid.of_direction[entry] {
+                    let p = grid.samples[g];
+                    if dot(p, directions[entry]) >= nearest_dot(&directions, p) - 1e-9 {
+                        assert!(samples.iter().any(|&s| cells.samples[s] == p));
+                    }
+                }
+            }
+            assert!(
+                used.iter().all(|&u| u),
+                "{steps} steps: a sample no entry measures"
+            );
+            // Every direction is served: each held-out direction's nearest entry has a sample
+            // (or its own direction) within a grid step (a level-2 edge is about 0.2775
+            // radians) of it.
+            let step = (0.2775 / steps as f64).cos();
+            for &h in &held_out {
+                let entry = (0..directions.len())
+                    .max_by(|&a, &b| dot(h, directions[a]).total_cmp(&dot(h, directions[b])))
+                    .unwrap();
+                let near = dot(h, directions[entry]) > step
+                    || cells.of_direction[entry]
+                        .iter()
+                        .any(|&s| dot(h, cells.samples[s]) > step);
+                assert!(
+                    near,
+                    "{steps} steps: held-out {h:?} far from entry {entry}'s samples"
+                );
             }
         }
     }
