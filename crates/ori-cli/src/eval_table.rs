@@ -56,7 +56,7 @@ pub struct Args {
     region_steps: Option<u32>,
     /// Where `best:M` measures each entry's region: `cell` or `triangle`
     /// (`[select] region_shape`).
-    #[arg(long, value_parser = parse_region_shape)]
+    #[arg(long)]
     region_shape: Option<RegionShape>,
     /// The region's directions are measured at s0 times this (`[select] region_scale`).
     #[arg(long)]
@@ -79,14 +79,6 @@ pub struct Args {
     /// Write the error picture of each column's worst view into DIR (PNG).
     #[arg(long, value_name = "DIR")]
     pictures: Option<PathBuf>,
-}
-
-fn parse_region_shape(text: &str) -> Result<RegionShape, String> {
-    match text {
-        "cell" => Ok(RegionShape::Cell),
-        "triangle" => Ok(RegionShape::Triangle),
-        _ => Err(format!("\"{text}\": cell or triangle")),
-    }
 }
 
 /// Exit status 1: the model cannot be loaded or evaluated; 2: bad options.

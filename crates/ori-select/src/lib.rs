@@ -19,12 +19,12 @@
 //! [`ori_views::evaluation_regions`], that the entry serves, and its cell's corners; at the
 //! default `region_steps = 6`, 29 to 31 per entry, 5,922 views in all, most shared by
 //! neighbouring entries), and a subset reaches the goal only when it does in its own view
-//! (`goal_percent`) and at every one of those (`edge_goal_percent`). The region's views are drawn at `s0 * region_scale`
-//! pixels across (default 0.75: 192 at s0 = 256), the same window with fewer pixels to trace,
-//! their errors counted in pixels of s0 ([`own_pixels`]). Coarser counts vary more from view
-//! to view, so at 0.5 the same goals take a few more impostors per view. The entry's `missed`
-//! stays the error in its own view
-//! (the table's figures); quality is reported at held-out directions ([`held_out`]).
+//! (`goal_percent`) and at every one of those (`edge_goal_percent`). The region's views are
+//! drawn at `s0 * region_scale` pixels across (default 0.75: 192 at s0 = 256), the same
+//! window with fewer pixels to trace, their errors counted in pixels of s0 ([`own_pixels`]).
+//! Coarser counts vary more from view to view, so at 0.5 the same goals take a few more
+//! impostors per view. The entry's `missed` stays the error in its own view (the table's
+//! figures); quality is reported at held-out directions ([`held_out`]).
 //!
 //! Work (parallel over views, then over entries, collected in order): the [`MaskPlan`] lists
 //! the views and the impostors to trace in each; the mesh's coverage of every view is
@@ -250,6 +250,8 @@ pub struct MaskPlan {
     pub own_views: usize,
     /// The image edge of the regions' views.
     pub region_size: u32,
+    /// Each entry's region: its views, as indices past `own_views` (none for `closest:M`).
+    pub regions: Vec<Vec<usize>>,
 }
 
 impl MaskPlan {
@@ -261,10 +263,11 @@ impl MaskPlan {
             .iter()
             .map(|&w| evaluator.facing(w).into_iter().take(m).collect())
             .collect();
+        let mut regions = Vec::new();
         if let Rule::Best(_) = params.rule {
-            let regions = params.regions();
-            let mut around = vec![Vec::new(); regions.samples.len()];
-            for (entry, samples) in regions.of_direction.iter().enumerate() {
+            let grid = params.regions();
+            let mut around = vec![Vec::new(); grid.samples.len()];
+            for (entry, samples) in grid.of_direction.iter().enumerate() {
                 for &s in samples {
                     around[s].extend_from_slice(&impostors[entry]);
                 }
@@ -273,14 +276,16 @@ impl MaskPlan {
                 list.sort_unstable();
                 list.dedup();
             }
-            directions.extend(regions.samples);
+            directions.extend(grid.samples);
             impostors.extend(around);
+            regions = grid.of_direction;
         }
         MaskPlan {
             directions,
             impostors,
             own_views,
             region_size: params.region_size(),
+            regions,
         }
     }
 
@@ -371,7 +376,7 @@ fn region_samples(params: &SelectParams) -> Vec<Vec<usize>> {
 
 /// Each entry chosen by `choose` from its own view and its region's, in parallel, in order.
 /// `views` are in a [`MaskPlan`]'s order: the evaluation directions, then the region samples
-/// that `regions` (from [`region_samples`]) index.
+/// that `regions` (a [`MaskPlan`]'s) index.
 fn choose_entries<T: Sync>(
     views: &[T],
     regions: &[Vec<usize>],
@@ -425,7 +430,7 @@ pub fn select_with(
         })
         .collect::<Result<_, SelectError>>()?;
     let goals = params.goals();
-    let entries = choose_entries(&views, &region_samples(params), |own, region| {
+    let entries = choose_entries(&views, &plan.regions, |own, region| {
         lazy::choose_entry(evaluator, own, region, params.rule, goals)
     });
     Ok(Selection::of(params, evaluator.set().maps.len(), entries))

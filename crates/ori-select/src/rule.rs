@@ -33,6 +33,20 @@ pub enum RegionShape {
     Cell,
 }
 
+impl FromStr for RegionShape {
+    type Err = SelectError;
+
+    /// The names `pipeline.toml` uses (serde's), so the two cannot drift apart.
+    fn from_str(s: &str) -> Result<RegionShape, SelectError> {
+        use serde::de::{IntoDeserializer, value::Error};
+        RegionShape::deserialize(s.into_deserializer()).map_err(|_: Error| {
+            SelectError::Params(format!(
+                "select.region_shape = {s:?}: expected \"cell\" or \"triangle\""
+            ))
+        })
+    }
+}
+
 /// Largest `M` of `best:M`: 2^M - 1 subsets are tried per view.
 pub const MAX_BEST: u32 = 16;
 /// The most impostors `closest:M` may draw per view (the selection artifact stores the count

@@ -4,7 +4,8 @@
 use ori_bake::{BakeParams, ReliefSet};
 use ori_mesh::Mesh;
 use ori_select::{
-    MaskPlan, Rule, SelectParams, Selection, all_view_masks, select, select_from_masks, select_with,
+    MaskPlan, RegionShape, Rule, SelectParams, Selection, all_view_masks, select,
+    select_from_masks, select_with,
 };
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/models");
@@ -120,6 +121,21 @@ fn params_come_from_a_select_section() {
         let e = toml::from_str::<SelectParams>(&format!("rule = \"{bad}\"")).unwrap_err();
         assert!(e.to_string().contains("select.rule"), "{bad}: {e}");
     }
+    for shape in [RegionShape::Cell, RegionShape::Triangle] {
+        let written = toml::to_string(&SelectParams {
+            region_shape: shape,
+            ..SelectParams::default()
+        })
+        .unwrap();
+        let name = written
+            .lines()
+            .find_map(|l| l.strip_prefix("region_shape = "))
+            .unwrap()
+            .trim_matches('"');
+        assert_eq!(name.parse::<RegionShape>().unwrap(), shape, "{written}");
+    }
+    let e = "cells".parse::<RegionShape>().unwrap_err().to_string();
+    assert!(e.contains("select.region_shape"), "{e}");
     let too_far = SelectParams {
         goal_percent: 101.0,
         ..SelectParams::default()

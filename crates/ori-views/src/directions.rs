@@ -206,7 +206,7 @@ pub fn evaluation_regions(steps: usize) -> EvaluationRegions {
 impl EvaluationRegions {
     /// These regions made the cells the runtime serves from each entry (it draws a direction
     /// with its nearest entry): where the triangles are not regular a cell reaches a little
-    /// past its triangle, so each entry's cell corners ([`cell_corners`]) are added (unless
+    /// past its triangle, so each entry's cell corners (`cell_corners`) are added (unless
     /// within [`SAME_DIRECTION`] of a sample it has), and parts of a triangle belong to a
     /// neighbour's cell, so each entry then keeps only the samples it serves or nearly
     /// serves: `dot(p, own) >= max over entries of dot(p, entry) - CELL_MARGIN`. Samples no
@@ -258,7 +258,7 @@ impl EvaluationRegions {
 /// past the edge between two neighbouring cells, a third of the grid's step at the default
 /// 6 steps. Without it the samples on a shared edge serve one side only, and the errors
 /// between grid points near an edge go unmeasured on the other.
-pub const CELL_MARGIN: f64 = 0.003;
+pub(crate) const CELL_MARGIN: f64 = 0.003;
 
 /// The largest `dot(p, d)` over `directions`.
 fn nearest_dot(directions: &[[f64; 3]], p: [f64; 3]) -> f64 {
@@ -275,11 +275,11 @@ const SAME_DIRECTION: f64 = 1e-12;
 /// The corners of the cells of [`evaluation_directions`] on the sphere (each direction's
 /// cell: the directions nearer to it than to any other), and which entries meet at each.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CellCorners {
+pub(crate) struct CellCorners {
     /// Each corner once, in order of discovery.
-    pub corners: Vec<[f64; 3]>,
+    pub(crate) corners: Vec<[f64; 3]>,
     /// For evaluation direction `i`: the corners of its cell, as indices into `corners`.
-    pub of_direction: Vec<Vec<usize>>,
+    pub(crate) of_direction: Vec<Vec<usize>>,
 }
 
 /// [`CellCorners`] of the evaluation directions `t`: for `a < b < c` with the three pairwise
@@ -287,7 +287,7 @@ pub struct CellCorners {
 /// direction has `dot(v, d) > dot(v, a) + 1e-9` (no entry nearer) and no kept corner is the
 /// same direction ([`SAME_DIRECTION`]). Each corner belongs to every entry `d` with
 /// `dot(v, d) >= max_d dot(v, d) - 1e-9` (three, or more where more cells meet).
-pub fn cell_corners() -> CellCorners {
+pub(crate) fn cell_corners() -> CellCorners {
     const NEAR: f64 = 0.9;
     const TIE: f64 = 1e-9;
     let t = evaluation_directions();
@@ -298,7 +298,6 @@ pub fn cell_corners() -> CellCorners {
                 .collect()
         })
         .collect();
-    let nearest_dot = |v: [f64; 3]| nearest_dot(&t, v);
     let mut corners: Vec<[f64; 3]> = Vec::new();
     for (a, after_a) in near.iter().enumerate() {
         for (i, &b) in after_a.iter().enumerate() {
@@ -310,7 +309,7 @@ pub fn cell_corners() -> CellCorners {
                 if dot(v, t[a]) < 0.0 {
                     v = v.map(|x| -x);
                 }
-                if nearest_dot(v) > dot(v, t[a]) + TIE
+                if nearest_dot(&t, v) > dot(v, t[a]) + TIE
                     || corners.iter().any(|&k| 1.0 - dot(k, v) < SAME_DIRECTION)
                 {
                     continue;
@@ -321,7 +320,7 @@ pub fn cell_corners() -> CellCorners {
     }
     let mut of_direction = vec![Vec::new(); t.len()];
     for (k, &v) in corners.iter().enumerate() {
-        let nearest = nearest_dot(v);
+        let nearest = nearest_dot(&t, v);
         for (entry, &d) in t.iter().enumerate() {
             if dot(v, d) >= nearest - TIE {
                 of_direction[entry].push(k);

@@ -29,9 +29,9 @@ pub use coverage::{
     SamplingCoverage, sampling_coverage, sampling_coverage_with_visible, visible_surface,
 };
 pub use directions::{
-    CellCorners, DEFAULT_HELD_OUT_SEED, EvaluationRegions, HELD_OUT_RANDOM, HELD_OUT_REGULAR,
-    axis_directions, cell_corners, evaluation_corners, evaluation_directions, evaluation_regions,
-    held_out_directions, icosahedron_directions,
+    DEFAULT_HELD_OUT_SEED, EvaluationRegions, HELD_OUT_RANDOM, HELD_OUT_REGULAR, axis_directions,
+    evaluation_corners, evaluation_directions, evaluation_regions, held_out_directions,
+    icosahedron_directions,
 };
 pub use entropy::{BoundingSphere, viewpoint_entropy};
 pub use params::{Strategy, ViewParams};
