@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use clap::Subcommand;
 use ori_pipeline::ori::{self, OriParams};
+use rayon::prelude::*;
 
 #[derive(Subcommand)]
 pub enum Bench {
@@ -30,6 +31,14 @@ pub enum Bench {
     /// models of growing size, with the default thread pool, beside selection with every mask
     /// traced before the search.
     Select {
+        /// Timed runs per model (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
+    /// Time the mesh's coverage (what every selection and held-out view starts from) in every
+    /// view of a selection's plan at the defaults, on real models of growing size, with the
+    /// default thread pool; the pixels covered are printed so that two builds can be compared.
+    Coverage {
         /// Timed runs per model (the median is reported).
         #[arg(long, default_value_t = 3)]
         runs: usize,
@@ -126,6 +135,7 @@ pub fn run(which: Bench) -> ExitCode {
         Bench::NoopRebuild { assets, runs } => noop_rebuild(assets, runs),
         Bench::Bake { runs } => bake(runs),
         Bench::Select { runs } => select(runs),
+        Bench::Coverage { runs } => coverage(runs),
         Bench::Place { runs } => place(runs),
         Bench::Release => release(),
         Bench::RemoteExec {
@@ -370,6 +380,60 @@ fn place(runs: usize) -> Result<(), String> {
             median(times).as_secs_f64(),
             placed.moves,
             format!("{} -> {}", placed.worst_before, placed.worst_after)
+        );
+    }
+    Ok(())
+}
+
+fn coverage(runs: usize) -> Result<(), String> {
+    let params = unplaced();
+    let select = &params.select;
+    println!(
+        "mesh coverage in the views of a selection's plan ({}, region steps {}, {:?}, s0 = {} \
+         and {} in the regions), {} threads, median of {runs}",
+        select.rule,
+        select.region_steps,
+        select.region_shape,
+        select.s0,
+        select.region_size(),
+        rayon::current_num_threads()
+    );
+    println!(
+        "{:<36} {:>7} {:>6} {:>11} {:>16} {:>14}",
+        "model", "faces", "views", "coverage s", "us/view/100k f", "pixels covered"
+    );
+    for rel in GROWING_MODELS {
+        let mesh = load(rel)?;
+        let set = ori::build_maps(&mesh, &params)
+            .map_err(|e| e.to_string())?
+            .set;
+        let evaluator = ori_eval::Evaluator::new(&mesh, &set, &select.eval_params())
+            .map_err(|e| e.to_string())?;
+        let plan = ori_select::MaskPlan::new(&evaluator, select);
+        let views = (0..plan.directions.len())
+            .map(|k| plan.view(&evaluator, k))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        let (mut times, mut covered) = (Vec::new(), 0);
+        for _ in 0..runs.max(1) {
+            let t = Instant::now();
+            covered = views
+                .par_iter()
+                .map(|v| u64::from(evaluator.mesh_coverage(v).count()))
+                .sum::<u64>();
+            times.push(t.elapsed());
+        }
+        let secs = median(times).as_secs_f64();
+        let faces = mesh.triangles.len();
+        let name = Path::new(rel).file_name().unwrap().to_string_lossy();
+        println!(
+            "{:<36} {:>7} {:>6} {:>11.3} {:>16.2} {:>14}",
+            name,
+            faces,
+            views.len(),
+            secs,
+            secs * 1e6 / views.len() as f64 / (faces as f64 / 1e5),
+            covered
         );
     }
     Ok(())
