@@ -385,6 +385,8 @@ fn place(runs: usize) -> Result<(), String> {
     Ok(())
 }
 
+/// The mesh's coverage in every view of a selection's plan (unplaced maps: the plan's views
+/// do not depend on placement), timed alone.
 fn coverage(runs: usize) -> Result<(), String> {
     let params = unplaced();
     let select = &params.select;

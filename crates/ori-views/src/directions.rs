@@ -298,7 +298,8 @@ pub(crate) fn cell_corners() -> CellCorners {
                 .collect()
         })
         .collect();
-    let mut corners: Vec<[f64; 3]> = Vec::new();
+    // Each corner with its `nearest_dot`, which also decides its entries below.
+    let mut corners: Vec<([f64; 3], f64)> = Vec::new();
     for (a, after_a) in near.iter().enumerate() {
         for (i, &b) in after_a.iter().enumerate() {
             for &c in &after_a[i + 1..] {
@@ -309,18 +310,20 @@ pub(crate) fn cell_corners() -> CellCorners {
                 if dot(v, t[a]) < 0.0 {
                     v = v.map(|x| -x);
                 }
-                if nearest_dot(&t, v) > dot(v, t[a]) + TIE
-                    || corners.iter().any(|&k| 1.0 - dot(k, v) < SAME_DIRECTION)
+                let nearest = nearest_dot(&t, v);
+                if nearest > dot(v, t[a]) + TIE
+                    || corners
+                        .iter()
+                        .any(|&(k, _)| 1.0 - dot(k, v) < SAME_DIRECTION)
                 {
                     continue;
                 }
-                corners.push(v);
+                corners.push((v, nearest));
             }
         }
     }
     let mut of_direction = vec![Vec::new(); t.len()];
-    for (k, &v) in corners.iter().enumerate() {
-        let nearest = nearest_dot(&t, v);
+    for (k, &(v, nearest)) in corners.iter().enumerate() {
         for (entry, &d) in t.iter().enumerate() {
             if dot(v, d) >= nearest - TIE {
                 of_direction[entry].push(k);
@@ -328,7 +331,7 @@ pub(crate) fn cell_corners() -> CellCorners {
         }
     }
     CellCorners {
-        corners,
+        corners: corners.into_iter().map(|(v, _)| v).collect(),
         of_direction,
     }
 }
@@ -482,11 +485,10 @@ mod tests {
             for &k in of_entry {
                 let v = cells.corners[k];
                 let own = dot(v, directions[i]);
-                let nearest = directions
-                    .iter()
-                    .map(|&d| dot(v, d))
-                    .fold(f64::MIN, f64::max);
-                assert!(own >= nearest - 1e-9, "entry {i}, corner {k}");
+                assert!(
+                    own >= nearest_dot(&directions, v) - 1e-9,
+                    "entry {i}, corner {k}"
+                );
                 outside += usize::from(!inside(v, triangles[i]));
             }
         }
