@@ -441,7 +441,7 @@ fn coverage(runs: usize) -> Result<(), String> {
     Ok(())
 }
 
-/// Selection as the pipeline runs it (masks traced as the subset search reads them), beside
+/// Selection as the pipeline runs it (masks traced where the subset search needs them), beside
 /// every mask of the plan traced first and then searched (as `--backend gpu` does; the same
 /// table), and the PLT, on unplaced maps.
 fn select(runs: usize) -> Result<(), String> {

@@ -75,36 +75,20 @@ pub fn choose_region(own: &ViewMasks, region: &[&ViewMasks], rule: Rule, goals: 
 }
 
 /// The masks one entry's choice reads, by view (0: the entry's own, then its region) and by
-/// candidate (`bit`: the entry's candidate `bit`, closest first).
+/// candidate (`bit`: the entry's candidate `bit`, closest first), as the errors of unions.
 pub(crate) trait EntryMasks {
     fn view_count(&self) -> usize;
     /// The view's edge in pixels.
     fn size(&self, view: usize) -> u32;
-    fn reference(&self, view: usize) -> &[u64];
-    /// The mask of candidate `bit` in `view`; `None`: none given, nothing drawn.
-    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]>;
+
+    /// Coverage error in `view` of the union of the first `k` candidates that `chosen`
+    /// accepts (a candidate with no mask in `view` draws nothing there).
+    fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32;
 
     /// Coverage error in `view` of the union of the candidates in bit set `subset`.
     fn missed(&self, view: usize, subset: u32) -> u32 {
         let bits = 32 - subset.leading_zeros() as usize;
         self.missed_where(view, bits, |bit| subset >> bit & 1 != 0)
-    }
-
-    /// Coverage error in `view` of the union of the first `k` candidates that `chosen`
-    /// accepts.
-    fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32 {
-        let members: Vec<&[u64]> = (0..k)
-            .filter(|&bit| chosen(bit))
-            .filter_map(|bit| self.candidate(view, bit))
-            .collect();
-        self.reference(view)
-            .iter()
-            .enumerate()
-            .map(|(w, &r)| {
-                let union = members.iter().fold(0u64, |acc, m| acc | m[w]);
-                (r & !union).count_ones()
-            })
-            .sum()
     }
 }
 
@@ -113,8 +97,8 @@ pub(crate) trait EntryMasks {
 ///
 /// The views before `bound` (at least the own view) are measured for every subset; the
 /// others only for the subsets that can still win, in order of their error in those first
-/// views, a lower bound of their error in all of them. So where `masks` traces a candidate's
-/// mask when it is first read, the views beyond `bound` cost only what the search reads, and
+/// views, a lower bound of their error in all of them. So where `masks` traces what the
+/// search reads when it is first read, the views beyond `bound` cost only what it reads, and
 /// the choice is the same for any `bound`.
 pub(crate) fn choose_with(
     masks: &impl EntryMasks,
@@ -281,6 +265,13 @@ impl<'a> Measured<'a> {
     }
 }
 
+impl Given<'_> {
+    /// The mask of candidate `bit` in `view`; `None`: none given, nothing drawn.
+    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
+        self.0[view].candidates[bit]
+    }
+}
+
 impl EntryMasks for Given<'_> {
     fn view_count(&self) -> usize {
         self.0.len()
@@ -290,12 +281,20 @@ impl EntryMasks for Given<'_> {
         self.0[view].size
     }
 
-    fn reference(&self, view: usize) -> &[u64] {
-        self.0[view].reference
-    }
-
-    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
-        self.0[view].candidates[bit]
+    fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32 {
+        let members: Vec<&[u64]> = (0..k)
+            .filter(|&bit| chosen(bit))
+            .filter_map(|bit| self.candidate(view, bit))
+            .collect();
+        self.0[view]
+            .reference
+            .iter()
+            .enumerate()
+            .map(|(w, &r)| {
+                let union = members.iter().fold(0u64, |acc, m| acc | m[w]);
+                (r & !union).count_ones()
+            })
+            .sum()
     }
 }
 
@@ -349,12 +348,14 @@ mod tests {
         fn size(&self, view: usize) -> u32 {
             self.0.size(view)
         }
-        fn reference(&self, view: usize) -> &[u64] {
-            self.0.reference(view)
-        }
-        fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
-            self.1.borrow_mut().insert((view, bit));
-            self.0.candidate(view, bit)
+        fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32 {
+            let mut read = self.1.borrow_mut();
+            for bit in (0..k).filter(|&bit| chosen(bit)) {
+                if self.0.candidate(view, bit).is_some() {
+                    read.insert((view, bit));
+                }
+            }
+            self.0.missed_where(view, k, chosen)
         }
     }
 

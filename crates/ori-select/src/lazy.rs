@@ -1,10 +1,13 @@
-//! Masks traced when the subset search first reads them ([`select_with`](crate::select_with)).
+//! Masks traced when the subset search first reads them ([`select_with`](crate::select_with)),
+//! and only at the pixels it needs.
 //!
 //! The grid over an entry's region holds several times the entry's own view, but the search
 //! ([`choose_with`]) reads most of it only for the few subsets that can still win, so tracing
-//! every candidate there would be mostly wasted.
+//! every candidate there would be mostly wasted. And a subset's error is the pixels no member
+//! covers: a member is traced only where the others are not known to cover, so where the
+//! closest candidate covers a pixel, the others are seldom traced there.
 
-use std::sync::OnceLock;
+use std::sync::{Mutex, PoisonError};
 
 use ori_eval::{Evaluator, Mask};
 use ori_raster::OrthoView;
@@ -13,12 +16,19 @@ use crate::choose::{Choice, EntryMasks, Goals, choose_with};
 use crate::rule::Rule;
 
 /// One view of a [`MaskPlan`](crate::MaskPlan): its frame and the mesh's coverage, traced up
-/// front, and a slot per listed impostor for its mask.
+/// front, and a slot per listed impostor for what is known of its mask.
 pub(crate) struct LazyView {
     view: OrthoView,
     reference: Mask,
     impostors: Vec<usize>,
-    masks: Vec<OnceLock<Mask>>,
+    masks: Vec<Mutex<Option<Partial>>>,
+}
+
+/// What is known of one impostor's mask in one view: the pixels traced, and those of them it
+/// covers.
+struct Partial {
+    traced: Mask,
+    covered: Mask,
 }
 
 impl LazyView {
@@ -28,7 +38,7 @@ impl LazyView {
             view,
             reference,
             impostors: impostors.to_vec(),
-            masks: impostors.iter().map(|_| OnceLock::new()).collect(),
+            masks: impostors.iter().map(|_| Mutex::new(None)).collect(),
         }
     }
 }
@@ -49,25 +59,50 @@ impl EntryMasks for Entry<'_, '_> {
         self.views[view].view.size
     }
 
-    fn reference(&self, view: usize) -> &[u64] {
-        self.views[view].reference.words()
-    }
-
-    fn candidate(&self, view: usize, bit: usize) -> Option<&[u64]> {
+    fn missed_where(&self, view: usize, k: usize, chosen: impl Fn(usize) -> bool) -> u32 {
         let v = self.views[view];
-        let slot = self.slots[view][bit]?;
-        // Entries sharing a view may wait here for each other's mask: the tracing must not
-        // run rayon jobs, or a waiting worker could take one that waits on the same cell.
-        let mask = v.masks[slot].get_or_init(|| {
-            self.evaluator
-                .impostor_mask(&v.view, v.impostors[slot], Some(&v.reference))
-        });
-        Some(mask.words())
+        let members: Vec<usize> = (0..k)
+            .filter(|&bit| chosen(bit))
+            .filter_map(|bit| self.slots[view][bit])
+            .collect();
+        // One slot locked at a time, so entries sharing a view never wait on each other in a
+        // cycle. The tracing must not run rayon jobs: a waiting worker could take one that
+        // waits on the same slot.
+        let lock = |slot: usize| v.masks[slot].lock().unwrap_or_else(PoisonError::into_inner);
+        let mut open = v.reference.clone();
+        for &slot in &members {
+            if let Some(known) = lock(slot).as_ref() {
+                open.remove(&known.covered);
+            }
+        }
+        // Each pixel still open is traced for each member that has not been, until one
+        // covers it; what is left is covered by none.
+        for &slot in &members {
+            if open.count() == 0 {
+                break;
+            }
+            let mut known = lock(slot);
+            let known = known.get_or_insert_with(|| Partial {
+                traced: Mask::new(v.view.size),
+                covered: Mask::new(v.view.size),
+            });
+            let mut todo = open.clone();
+            todo.remove(&known.traced);
+            if todo.count() > 0 {
+                let covered = self
+                    .evaluator
+                    .impostor_mask(&v.view, v.impostors[slot], Some(&todo));
+                known.covered.union_with(&covered);
+                known.traced.union_with(&todo);
+            }
+            open.remove(&known.covered);
+        }
+        open.count()
     }
 }
 
 /// Choose one entry from its own view and its region's views (corners first), tracing masks
-/// as the search reads them. The own view and the region's corners are measured for every
+/// where the search needs them. The own view and the region's corners are measured for every
 /// subset.
 pub(crate) fn choose_entry(
     evaluator: &Evaluator<'_>,

@@ -28,14 +28,17 @@
 //!
 //! Work (parallel over views, then over entries, collected in order): the [`MaskPlan`] lists
 //! the views and the impostors to trace in each; the mesh's coverage of every view is
-//! rendered up front, and an impostor's coverage mask in a view the first time the subset
-//! search reads it, once ([`select_with`]). The search measures every subset in the entry's
-//! own view and its region's corners, and the rest of the grid only for the subsets that can
-//! still win, so most masks of the grid are never traced, and the choice is the one a search
-//! over every mask makes ([`select_from_masks`], which `--backend gpu` feeds with masks
-//! traced on the device). Masks are combined with OR and popcount. Each mask has one value
-//! whichever thread traces it and each entry is chosen by one thread and collected in order,
-//! so the table ([`Selection::encode`]) is bit-identical for any number of threads.
+//! rendered up front, and an impostor's coverage mask in a view only where the subset search
+//! needs it, each pixel once ([`select_with`]): a subset's error is the pixels no member
+//! covers, so a member is traced only at the pixels the others are not known to cover. The
+//! search measures every subset in the entry's own view and its region's corners, and the
+//! rest of the grid only for the subsets that can still win, so most masks of the grid are
+//! never traced, and the choice is the one a search over every mask makes
+//! ([`select_from_masks`], which `--backend gpu` feeds with masks traced on the device).
+//! Masks are combined with OR and popcount. Each pixel of a mask has one value whichever
+//! thread traces it and an error does not depend on which pixels were traced before, and each
+//! entry is chosen by one thread and collected in order, so the table
+//! ([`Selection::encode`]) is bit-identical for any number of threads.
 //! [`evaluate_rules`] renders full images for the extra measures (inverse coverage, p_dif,
 //! depth error) of `cargo xtask eval-table`.
 //!
