@@ -109,7 +109,7 @@ pub use compare::{
     ShadedMesh, Shading, ViewErrors, compare, error_image, percent, write_error_png,
 };
 pub use march::{ImpostorRays, MarchParams, Simd, Trace, WallMap};
-pub use mask::Mask;
+pub use mask::{Mask, PartialMask};
 pub use part::Whole;
 pub use reference::eval_view;
 pub use render::{Layer, NO_SOURCE, Render};

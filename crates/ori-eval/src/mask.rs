@@ -139,9 +139,103 @@ impl Mask {
     }
 }
 
+/// What is known of one impostor's coverage mask in one view, when it is traced only at the
+/// pixels asked for: the pixels traced, and those of them it covers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PartialMask {
+    traced: Mask,
+    covered: Mask,
+}
+
+impl PartialMask {
+    /// Nothing traced yet, in a view `size` pixels across.
+    pub fn new(size: u32) -> PartialMask {
+        PartialMask {
+            traced: Mask::new(size),
+            covered: Mask::new(size),
+        }
+    }
+
+    /// The pixels traced so far.
+    pub fn traced(&self) -> &Mask {
+        &self.traced
+    }
+
+    /// The pixels traced so far that the impostor covers.
+    pub fn covered(&self) -> &Mask {
+        &self.covered
+    }
+
+    /// Remove from `open` the pixels the impostor covers, after tracing it at those of `open`
+    /// not traced yet (`trace(pixels)`: the pixels of `pixels` it covers).
+    ///
+    /// The error of a union (the pixels of a reference no member covers) is then found by
+    /// removing each member's known pixels from the reference and calling this for each
+    /// member in turn: a member is traced only where the ones before it do not cover, each
+    /// pixel at most once, and the pixels left are those no member covers.
+    ///
+    /// # Panics
+    /// If the sizes differ.
+    pub fn uncover(&mut self, open: &mut Mask, trace: impl FnOnce(&Mask) -> Mask) {
+        let mut todo = open.clone();
+        todo.remove(&self.traced);
+        if todo.count() > 0 {
+            self.covered.union_with(&trace(&todo));
+            self.traced.union_with(&todo);
+        }
+        open.remove(&self.covered);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_union_traced_where_needed_misses_what_the_full_masks_miss() {
+        let size = 16;
+        let pixels = (size * size) as usize;
+        // Three impostors' full masks and a reference, from a fixed pattern.
+        let full: Vec<Mask> = (0..3)
+            .map(|k| {
+                let mut m = Mask::new(size);
+                (0..pixels)
+                    .filter(|i| (i * 7 + k * 13) % 5 != 0)
+                    .for_each(|i| m.set(i));
+                m
+            })
+            .collect();
+        let mut reference = Mask::new(size);
+        (0..pixels)
+            .filter(|i| i % 3 != 0)
+            .for_each(|i| reference.set(i));
+        let mut known: Vec<PartialMask> = (0..3).map(|_| PartialMask::new(size)).collect();
+        let mut traced = [0u32; 3];
+        for members in [&[0, 1][..], &[2], &[1, 2], &[0, 1, 2], &[2, 0]] {
+            let mut union = Mask::new(size);
+            members.iter().for_each(|&m| union.union_with(&full[m]));
+            let mut open = reference.clone();
+            members
+                .iter()
+                .for_each(|&m| open.remove(known[m].covered()));
+            for &m in members {
+                known[m].uncover(&mut open, |todo| {
+                    traced[m] += todo.count();
+                    let mut got = Mask::new(size);
+                    todo.ones()
+                        .filter(|&i| full[m].get(i))
+                        .for_each(|i| got.set(i));
+                    got
+                });
+            }
+            assert_eq!(open.count(), reference.count_minus(&union), "{members:?}");
+        }
+        // No pixel was traced twice for the same impostor.
+        for (m, k) in known.iter().enumerate() {
+            assert_eq!(traced[m], k.traced().count());
+            assert!(k.traced().count() <= reference.count());
+        }
+    }
 
     #[test]
     fn set_count_union_and_difference() {

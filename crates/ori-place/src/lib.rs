@@ -25,8 +25,9 @@
 //!   closest ([`PlaceParams::closest`], at most `M`) is that of all `K` together: the pixels
 //!   the mesh covers that none of their masks covers. That is what the search lowers; the
 //!   `M - K` farther candidates are left to the selection, for the edges of each entry's
-//!   region. Masks are those of `ori_eval::Evaluator::impostor_mask`, computed
-//!   once per (view, candidate) pair and kept.
+//!   region. Masks are those of `ori_eval::Evaluator::impostor_mask`, traced only at the
+//!   pixels an error needs (a candidate where the others drawn with it are not known to
+//!   cover), each pixel at most once per (view, candidate) pair, and kept.
 //! - **A step.** Take the worst view (most pixels missed; ties: the lower index). Each
 //!   impostor among its `K` closest may move to any free candidate within
 //!   [`PlaceParams::step_deg`] of where it is. The move that leaves the lowest (worst error,
@@ -56,7 +57,7 @@
 //! `ori_views` too).
 
 use ori_bake::{BakeError, BakeParams, Baker};
-use ori_eval::{EvalError, EvalParams, Evaluator, Mask};
+use ori_eval::{EvalError, EvalParams, Evaluator, Mask, PartialMask};
 use ori_mesh::Mesh;
 use ori_raster::OrthoView;
 use ori_relief::{ReliefMap, ReliefSet};
@@ -346,6 +347,14 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// One view's share of a [`Search::fill`]: the drawn sets whose errors it settles, in
+/// order, and what is known of the masks of the candidates they draw.
+struct ViewWork {
+    view: usize,
+    sets: Vec<Vec<usize>>,
+    known: Vec<(usize, PartialMask)>,
+}
+
 /// The measured state of a search: candidate maps and the masks computed so far.
 struct Search<'a> {
     mesh: &'a Mesh,
@@ -361,8 +370,9 @@ struct Search<'a> {
     views: &'a [OrthoView],
     /// The mesh's coverage of each view.
     references: &'a [Mask],
-    /// `masks[view * candidates.len() + candidate]`, within the view's reference.
-    masks: Vec<Option<Mask>>,
+    /// `masks[view * candidates.len() + candidate]`: what is known of the candidate's mask
+    /// in the view, within the view's reference (traced only where an error needed it).
+    masks: Vec<Option<PartialMask>>,
 }
 
 impl Search<'_> {
@@ -385,19 +395,33 @@ impl Search<'_> {
         view * self.candidates.len() + candidate
     }
 
-    /// Compute the masks `sets` need in `views` that are not kept yet (in parallel, stored in
-    /// order), baking the candidates they draw first.
+    /// Whether the masks kept settle the error of `view` drawn with `drawn`: each pixel of
+    /// the reference is known to be covered by one of them or traced for all of them.
+    fn settled(&self, view: usize, drawn: &[usize]) -> bool {
+        let known = |c: usize| self.masks[self.slot(view, c)].as_ref();
+        let mut open = self.references[view].clone();
+        drawn
+            .iter()
+            .filter_map(|&c| known(c))
+            .for_each(|k| open.remove(k.covered()));
+        drawn.iter().all(|&c| match known(c) {
+            Some(k) => open.count_minus(k.traced()) == 0,
+            None => open.count() == 0,
+        })
+    }
+
+    /// Trace what the errors of `sets` in `views` need and the masks kept do not settle
+    /// (views in parallel, each view's sets in order), baking the candidates they draw first.
+    /// A candidate is traced only where the others drawn with it are not known to cover
+    /// ([`PartialMask::uncover`]), each pixel at most once.
     fn fill(&mut self, sets: &[&[usize]], views: &[usize]) -> Result<(), PlaceError> {
-        // Called once per batch of views while screening: collect the slots, not a flag per
-        // (view, candidate) pair of the whole search.
-        let mut todo: Vec<usize> = Vec::new();
-        for chosen in sets {
-            for &view in views {
-                for c in self.drawn(chosen, view) {
-                    let k = self.slot(view, c);
-                    if self.masks[k].is_none() {
-                        todo.push(k);
-                    }
+        // The (view, drawn candidates) pairs not settled, in view order.
+        let mut todo: Vec<(usize, Vec<usize>)> = Vec::new();
+        for &view in views {
+            for chosen in sets {
+                let drawn = self.drawn(chosen, view);
+                if !self.settled(view, &drawn) {
+                    todo.push((view, drawn));
                 }
             }
         }
@@ -406,8 +430,7 @@ impl Search<'_> {
         if todo.is_empty() {
             return Ok(());
         }
-        let n = self.candidates.len();
-        let mut wanted: Vec<usize> = todo.iter().map(|&k| k % n).collect();
+        let mut wanted: Vec<usize> = todo.iter().flat_map(|(_, d)| d.iter().copied()).collect();
         wanted.sort_unstable();
         wanted.dedup();
         let unbaked: Vec<usize> = wanted
@@ -422,6 +445,29 @@ impl Search<'_> {
                 self.baked[c] = Some(map);
             }
         }
+        // Each view's pairs with the masks of the candidates they draw, taken out of the
+        // search so that the views can be traced in parallel, and put back below.
+        let mut groups: Vec<ViewWork> = Vec::new();
+        for (view, drawn) in todo {
+            if groups.last().is_none_or(|g| g.view != view) {
+                groups.push(ViewWork {
+                    view,
+                    sets: Vec::new(),
+                    known: Vec::new(),
+                });
+            }
+            let group = groups.last_mut().expect("pushed above");
+            for &c in &drawn {
+                if !group.known.iter().any(|(k, _)| *k == c) {
+                    let (size, slot) = (self.views[view].size, self.slot(view, c));
+                    let kept = self.masks[slot].take();
+                    group
+                        .known
+                        .push((c, kept.unwrap_or_else(|| PartialMask::new(size))));
+                }
+            }
+            group.sets.push(drawn);
+        }
         // The evaluator gets only the maps this fill traces (moved out and back, not copied),
         // so its per-map set-up is not redone for every map at every move.
         let set = ReliefSet {
@@ -430,21 +476,36 @@ impl Search<'_> {
                 .map(|&c| self.baked[c].take().expect("baked above"))
                 .collect(),
         };
+        let (views, references) = (self.views, self.references);
         let made = Evaluator::new(self.mesh, &set, self.measure.eval).map(|evaluator| {
-            todo.par_iter()
-                .map(|&k| {
-                    let (view, c) = (k / n, k % n);
-                    let map = wanted.binary_search(&c).expect("a wanted candidate");
-                    evaluator.impostor_mask(&self.views[view], map, Some(&self.references[view]))
-                })
-                .collect::<Vec<Mask>>()
+            groups.par_iter_mut().for_each(|group| {
+                let (view, reference) = (&views[group.view], &references[group.view]);
+                for drawn in &group.sets {
+                    let mut open = reference.clone();
+                    for (_, known) in group.known.iter().filter(|(c, _)| drawn.contains(c)) {
+                        open.remove(known.covered());
+                    }
+                    for &c in drawn {
+                        let map = wanted.binary_search(&c).expect("a wanted candidate");
+                        let known = group.known.iter_mut().find(|(k, _)| *k == c);
+                        let (_, known) = known.expect("taken above");
+                        known.uncover(&mut open, |pixels| {
+                            evaluator.impostor_mask(view, map, Some(pixels))
+                        });
+                    }
+                }
+            })
         });
         for (&c, map) in wanted.iter().zip(set.maps) {
             self.baked[c] = Some(map);
         }
-        for (k, mask) in todo.into_iter().zip(made?) {
-            self.masks[k] = Some(mask);
+        for group in groups {
+            for (c, known) in group.known {
+                let slot = self.slot(group.view, c);
+                self.masks[slot] = Some(known);
+            }
         }
+        made?;
         Ok(())
     }
 
@@ -457,13 +518,15 @@ impl Search<'_> {
     }
 
     fn error(&self, chosen: &[usize], view: usize) -> u32 {
-        let reference = &self.references[view];
-        let mut union = Mask::new(reference.size());
-        for c in self.drawn(chosen, view) {
-            let mask = self.masks[self.slot(view, c)].as_ref();
-            union.union_with(mask.expect("masks filled before errors"));
+        let drawn = self.drawn(chosen, view);
+        debug_assert!(self.settled(view, &drawn), "masks filled before errors");
+        let mut open = self.references[view].clone();
+        for c in drawn {
+            if let Some(known) = &self.masks[self.slot(view, c)] {
+                open.remove(known.covered());
+            }
         }
-        reference.count_minus(&union)
+        open.count()
     }
 
     /// The trials (indices into `trials`, in order) that can still win, with all their masks

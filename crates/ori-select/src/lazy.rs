@@ -1,15 +1,15 @@
-//! Masks traced when the subset search first reads them ([`select_with`](crate::select_with)),
-//! and only at the pixels it needs.
+//! Masks traced where the subset search needs them ([`select_with`](crate::select_with)).
 //!
 //! The grid over an entry's region holds several times the entry's own view, but the search
 //! ([`choose_with`]) reads most of it only for the few subsets that can still win, so tracing
 //! every candidate there would be mostly wasted. And a subset's error is the pixels no member
-//! covers: a member is traced only where the others are not known to cover, so where the
-//! closest candidate covers a pixel, the others are seldom traced there.
+//! covers, so a member is traced only where the others are not known to cover
+//! ([`PartialMask::uncover`]): where the closest candidate covers a pixel, the others are
+//! seldom traced there.
 
 use std::sync::{Mutex, PoisonError};
 
-use ori_eval::{Evaluator, Mask};
+use ori_eval::{Evaluator, Mask, PartialMask};
 use ori_raster::OrthoView;
 
 use crate::choose::{Choice, EntryMasks, Goals, choose_with};
@@ -21,14 +21,7 @@ pub(crate) struct LazyView {
     view: OrthoView,
     reference: Mask,
     impostors: Vec<usize>,
-    masks: Vec<Mutex<Option<Partial>>>,
-}
-
-/// What is known of one impostor's mask in one view: the pixels traced, and those of them it
-/// covers.
-struct Partial {
-    traced: Mask,
-    covered: Mask,
+    masks: Vec<Mutex<Option<PartialMask>>>,
 }
 
 impl LazyView {
@@ -72,30 +65,19 @@ impl EntryMasks for Entry<'_, '_> {
         let mut open = v.reference.clone();
         for &slot in &members {
             if let Some(known) = lock(slot).as_ref() {
-                open.remove(&known.covered);
+                open.remove(known.covered());
             }
         }
-        // Each pixel still open is traced for each member that has not been, until one
-        // covers it; what is left is covered by none.
         for &slot in &members {
             if open.count() == 0 {
                 break;
             }
             let mut known = lock(slot);
-            let known = known.get_or_insert_with(|| Partial {
-                traced: Mask::new(v.view.size),
-                covered: Mask::new(v.view.size),
+            let known = known.get_or_insert_with(|| PartialMask::new(v.view.size));
+            known.uncover(&mut open, |todo| {
+                self.evaluator
+                    .impostor_mask(&v.view, v.impostors[slot], Some(todo))
             });
-            let mut todo = open.clone();
-            todo.remove(&known.traced);
-            if todo.count() > 0 {
-                let covered = self
-                    .evaluator
-                    .impostor_mask(&v.view, v.impostors[slot], Some(&todo));
-                known.covered.union_with(&covered);
-                known.traced.union_with(&todo);
-            }
-            open.remove(&known.covered);
         }
         open.count()
     }
