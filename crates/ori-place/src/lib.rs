@@ -398,16 +398,24 @@ impl Search<'_> {
     /// Whether the masks kept settle the error of `view` drawn with `drawn`: each pixel of
     /// the reference is known to be covered by one of them or traced for all of them.
     fn settled(&self, view: usize, drawn: &[usize]) -> bool {
-        let known = |c: usize| self.masks[self.slot(view, c)].as_ref();
-        let mut open = self.references[view].clone();
+        let open = self.open(view, drawn);
         drawn
             .iter()
-            .filter_map(|&c| known(c))
-            .for_each(|k| open.remove(k.covered()));
-        drawn.iter().all(|&c| match known(c) {
-            Some(k) => open.count_minus(k.traced()) == 0,
-            None => open.count() == 0,
-        })
+            .all(|&c| match &self.masks[self.slot(view, c)] {
+                Some(known) => open.count_minus(known.traced()) == 0,
+                None => open.count() == 0,
+            })
+    }
+
+    /// The reference's pixels of `view` that none of `drawn` is known to cover.
+    fn open(&self, view: usize, drawn: &[usize]) -> Mask {
+        let mut open = self.references[view].clone();
+        for &c in drawn {
+            if let Some(known) = &self.masks[self.slot(view, c)] {
+                open.remove(known.covered());
+            }
+        }
+        open
     }
 
     /// Trace what the errors of `sets` in `views` need and the masks kept do not settle
@@ -520,13 +528,7 @@ impl Search<'_> {
     fn error(&self, chosen: &[usize], view: usize) -> u32 {
         let drawn = self.drawn(chosen, view);
         debug_assert!(self.settled(view, &drawn), "masks filled before errors");
-        let mut open = self.references[view].clone();
-        for c in drawn {
-            if let Some(known) = &self.masks[self.slot(view, c)] {
-                open.remove(known.covered());
-            }
-        }
-        open.count()
+        self.open(view, &drawn).count()
     }
 
     /// The trials (indices into `trials`, in order) that can still win, with all their masks
